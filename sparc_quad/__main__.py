@@ -1,0 +1,5 @@
+import sys
+
+from sparc_quad.cli import main
+
+sys.exit(main())

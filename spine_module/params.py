@@ -1,0 +1,180 @@
+"""Every physical number of the SPARC spine, in SI units, in one place.
+
+Sources: the SPARC paper (Table II actuator data, Table III link data, Section IV gains) and the
+CyberGear manual for actuator limits. Where the paper is silent we make an interpretation; each one is
+named `INTERPRETATION` in a comment here and is repeated in the generated URDF's comments.
+
+Geometry (INTERPRETATION, see docs in README "Model"):
+  universe --q1 (torso pitch, about +y)--> hind_body --q2--> hind_spine --q3--> front_spine --q4-->
+  front_body --fixed--> end_effector.
+  Each link extends along its own +x by Table III's length; the next joint sits at the link's tip. With
+  the spine straight the end effector is 0.3614 m from the q1 axis. The paper's equilibrium
+  x_d = [0.273, 0, 0] is then a symmetric arch: q2 = q4 = -a, q3 = 2a, a = acos((0.273-0.1264)/0.235)
+  = 0.8963 rad, with the middle joint above the line (the spine arches up, as a dog's back does).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+GRAVITY_M_S2 = 9.81
+CONTROL_RATE_HZ = 1000.0
+CONTROL_PERIOD_S = 1.0 / CONTROL_RATE_HZ
+
+
+@dataclass(frozen=True)
+class LinkParams:
+    """One rigid link of the chain (Table III).
+
+    `inertia_kg_m2` is (Ixx, Iyy, Izz) about the link's centre of mass in the link frame.
+    """
+
+    name: str
+    mass_kg: float
+    length_m: float
+    inertia_kg_m2: tuple[float, float, float]
+    com_x_m: float
+
+
+def _com_with_actuator(mass_kg: float, length_m: float, actuator_kg: float) -> float:
+    """COM along the link when an actuator's mass sits at the link's distal joint axis.
+
+    INTERPRETATION: the paper says ~75 % of the mass is in the three actuators. Each of hind body, hind
+    spine and front spine carries the stator of the actuator at its distal joint; the rest of its mass
+    (printed structure) is spread uniformly along the link. The front body carries no actuator.
+    """
+    structure = mass_kg - actuator_kg
+    return (actuator_kg * length_m + structure * 0.5 * length_m) / mass_kg
+
+
+ACTUATOR_MASS_KG = 0.317  # Table II
+_MM2 = 1e-6  # kg*mm^2 -> kg*m^2
+
+HIND_BODY = LinkParams(
+    "hind_body", 0.377, 0.0632, (181 * _MM2, 328 * _MM2, 228 * _MM2),
+    _com_with_actuator(0.377, 0.0632, ACTUATOR_MASS_KG),
+)
+HIND_SPINE = LinkParams(
+    "hind_spine", 0.376, 0.1175, (148 * _MM2, 502 * _MM2, 426 * _MM2),
+    _com_with_actuator(0.376, 0.1175, ACTUATOR_MASS_KG),
+)
+FRONT_SPINE = LinkParams(
+    "front_spine", 0.414, 0.1175, (991 * _MM2, 175 * _MM2, 990 * _MM2),
+    _com_with_actuator(0.414, 0.1175, ACTUATOR_MASS_KG),
+)
+FRONT_BODY = LinkParams("front_body", 0.060, 0.0632, (44 * _MM2, 92 * _MM2, 61 * _MM2), 0.5 * 0.0632)
+LINKS: tuple[LinkParams, ...] = (HIND_BODY, HIND_SPINE, FRONT_SPINE, FRONT_BODY)
+MODULE_MASS_KG = sum(link.mass_kg for link in LINKS)  # 1.227 kg from Table III (paper quotes 1.26 kg)
+
+BASE_JOINT = "q1"
+ACTUATED_JOINTS: tuple[str, ...] = ("q2", "q3", "q4")
+ALL_JOINTS: tuple[str, ...] = (BASE_JOINT, *ACTUATED_JOINTS)
+EE_FRAME = "end_effector"
+BASE_LINK = "hind_body"
+
+# --- Actuator: Xiaomi CyberGear (Table II and the CyberGear manual) ----------------------------------
+TORQUE_LIMIT_NM = 12.0  # peak output torque
+GEAR_RATIO = 7.75
+VELOCITY_LIMIT_RAD_S = 30.0  # operation-control velocity range of the CyberGear
+# INTERPRETATION: rotor inertia of the CyberGear is not published in the paper; this figure is an
+# estimate for a 7.75:1 QDD of its class, used only for the plant and the gap workflow's effect library.
+ROTOR_INERTIA_KG_M2 = 1.0e-5
+REFLECTED_ROTOR_INERTIA_KG_M2 = GEAR_RATIO**2 * ROTOR_INERTIA_KG_M2
+
+# Joint limits (INTERPRETATION): keep the arch on one branch and away from the straight singularity.
+JOINT_LOWER_RAD = {"q1": -math.pi, "q2": -1.75, "q3": -0.20, "q4": -1.75}
+JOINT_UPPER_RAD = {"q1": math.pi, "q2": 0.20, "q3": 2.90, "q4": 0.20}
+JOINT_LIMIT_MARGIN_RAD = 0.10  # the node adds damping inside this margin of a limit
+
+
+def equilibrium_arch_angle(x_m: float = 0.273) -> float:
+    """Arch angle a such that the symmetric arch (-a, 2a, -a) puts the end effector at x_m, z = 0."""
+    inner = 2 * HIND_SPINE.length_m
+    reach = x_m - HIND_BODY.length_m - FRONT_BODY.length_m
+    return math.acos(reach / inner)
+
+
+X_EQUILIBRIUM = np.array([0.273, 0.0, 0.0])  # (x m, z m, theta rad), Section IV-A
+_A = equilibrium_arch_angle(float(X_EQUILIBRIUM[0]))
+Q_EQUILIBRIUM = np.array([0.0, -_A, 2 * _A, -_A])  # (q1..q4) rad
+
+
+# --- Friction (eq. 4) -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StribeckParams:
+    """Per-joint smooth Stribeck friction, eq. (4).
+
+    tau = (tau_c + (tau_s - tau_c) exp(-(|dq|/dq_s)^alpha)) tanh(beta dq) + b dq
+    """
+
+    tau_c_nm: float  # Coulomb friction, N*m
+    tau_s_nm: float  # static (breakaway) friction, N*m
+    b_nm_s_rad: float  # viscous coefficient, N*m*s/rad
+    dq_s_rad_s: float  # Stribeck velocity, rad/s
+    alpha: float  # Stribeck shape exponent, dimensionless
+    beta_s_rad: float  # tanh sharpness, s/rad
+
+    def scaled(self, coulomb: float = 1.0, static: float = 1.0, viscous: float = 1.0,
+               stribeck_velocity: float = 1.0) -> StribeckParams:
+        """A copy with each coefficient multiplied: used to make the plant differ from the model."""
+        return StribeckParams(self.tau_c_nm * coulomb, self.tau_s_nm * static, self.b_nm_s_rad * viscous,
+                              self.dq_s_rad_s * stribeck_velocity, self.alpha, self.beta_s_rad)
+
+
+# INTERPRETATION: the paper identifies friction but publishes no values. These are of the size reported
+# for CyberGear-class QDD actuators (output side): ~0.05 N*m Coulomb, ~0.08 N*m breakaway.
+NOMINAL_FRICTION = StribeckParams(tau_c_nm=0.05, tau_s_nm=0.08, b_nm_s_rad=0.010, dq_s_rad_s=0.05,
+                                  alpha=2.0, beta_s_rad=100.0)
+
+# --- Default controller settings (Section IV) -------------------------------------------------------
+K_DEFAULT = np.array([500.0, 1000.0, 15.0])  # k_x N/m, k_z N/m, k_theta N*m/rad
+D_DEFAULT = np.array([20.0, 20.0, 0.3])  # d_x N*s/m, d_z N*s/m, d_theta N*m*s/rad
+DLS_LAMBDA = 1e-3  # damped least-squares regulariser lambda (m), small as in eq. (3)
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """What the robot's sensors add to the truth (used by the simulated plant)."""
+
+    # CyberGear feedback frames carry uint16 over +-4*pi rad, +-30 rad/s, +-12 N*m.
+    position_lsb_rad: float = 8 * math.pi / 65535
+    velocity_lsb_rad_s: float = 60.0 / 65535
+    torque_lsb_nm: float = 24.0 / 65535
+    torque_noise_nm: float = 0.02  # current-based torque estimate, 1 sigma
+    load_cell_noise_n: float = 0.05  # 20 kg cell + HX711 at the bench's bandwidth, 1 sigma
+
+
+SENSORS = SensorParams()
+
+
+@dataclass(frozen=True)
+class SafetyParams:
+    """Deadlines and limits of the node's safety logic (issue: spine node)."""
+
+    torso_deadline_s: float = 0.020
+    feedback_deadline_s: float = 0.005
+    command_deadline_s: float = 0.200
+    heartbeat_deadline_s: float = 0.100
+    soft_start_s: float = 0.5
+    joint_limit_damping_nm_s_rad: float = 0.5
+    damping_mode_nm_s_rad: float = 0.3  # joint damping in the damping (safe) mode
+
+
+SAFETY = SafetyParams()
+
+
+@dataclass(frozen=True)
+class SpineParams:
+    """The bundle a model is built from; pass a modified copy to study a different spine."""
+
+    links: tuple[LinkParams, ...] = LINKS
+    torque_limit_nm: float = TORQUE_LIMIT_NM
+    velocity_limit_rad_s: float = VELOCITY_LIMIT_RAD_S
+    lower_rad: dict[str, float] = field(default_factory=lambda: dict(JOINT_LOWER_RAD))
+    upper_rad: dict[str, float] = field(default_factory=lambda: dict(JOINT_UPPER_RAD))
+
+
+DEFAULT_SPINE = SpineParams()
