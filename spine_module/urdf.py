@@ -50,7 +50,8 @@ def _revolute(name: str, parent: str, child: str, x_m: float, lower: float, uppe
         f'    <parent link="{parent}"/>\n    <child link="{child}"/>\n'
         f'    <origin xyz="{x_m:.9g} 0 0" rpy="0 0 0"/>\n'
         f'    <axis xyz="0 1 0"/>\n'
-        f'    <limit lower="{lower:.9g}" upper="{upper:.9g}" effort="{effort:.9g}" velocity="{velocity:.9g}"/>\n'
+        f'    <limit lower="{lower:.9g}" upper="{upper:.9g}" effort="{effort:.9g}"'
+        f' velocity="{velocity:.9g}"/>\n'
         f'    <dynamics damping="0" friction="0"/>\n'
         f'  </joint>\n'
     )
