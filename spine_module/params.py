@@ -79,9 +79,10 @@ BASE_LINK = "hind_body"
 TORQUE_LIMIT_NM = 12.0  # peak output torque
 GEAR_RATIO = 7.75
 VELOCITY_LIMIT_RAD_S = 30.0  # operation-control velocity range of the CyberGear
-# INTERPRETATION: rotor inertia of the CyberGear is not published in the paper; this figure is an
-# estimate for a 7.75:1 QDD of its class, used only for the plant and the gap workflow's effect library.
-ROTOR_INERTIA_KG_M2 = 1.0e-5
+# INTERPRETATION: the CyberGear's rotor inertia is not in the paper; 3e-5 kg*m^2 is an estimate for an
+# outer-rotor motor of its size. Reflected through 7.75:1 it is 1.8e-3 kg*m^2 per joint, ten times the
+# front body's own inertia about q4, so the model (pinocchio `armature`) and the plant both carry it.
+ROTOR_INERTIA_KG_M2 = 3.0e-5
 REFLECTED_ROTOR_INERTIA_KG_M2 = GEAR_RATIO**2 * ROTOR_INERTIA_KG_M2
 
 # Joint limits (INTERPRETATION): keep the arch on one branch and away from the straight singularity.
@@ -127,7 +128,7 @@ class StribeckParams:
 # INTERPRETATION: the paper identifies friction but publishes no values. These are of the size reported
 # for CyberGear-class QDD actuators (output side): ~0.05 N*m Coulomb, ~0.08 N*m breakaway.
 NOMINAL_FRICTION = StribeckParams(tau_c_nm=0.05, tau_s_nm=0.08, b_nm_s_rad=0.010, dq_s_rad_s=0.05,
-                                  alpha=2.0, beta_s_rad=100.0)
+                                  alpha=2.0, beta_s_rad=50.0)
 
 # --- Default controller settings (Section IV) -------------------------------------------------------
 K_DEFAULT = np.array([500.0, 1000.0, 15.0])  # k_x N/m, k_z N/m, k_theta N*m/rad
@@ -171,6 +172,7 @@ class SpineParams:
     """The bundle a model is built from; pass a modified copy to study a different spine."""
 
     links: tuple[LinkParams, ...] = LINKS
+    armature_kg_m2: float = REFLECTED_ROTOR_INERTIA_KG_M2  # reflected rotor inertia, each actuated joint
     torque_limit_nm: float = TORQUE_LIMIT_NM
     velocity_limit_rad_s: float = VELOCITY_LIMIT_RAD_S
     lower_rad: dict[str, float] = field(default_factory=lambda: dict(JOINT_LOWER_RAD))

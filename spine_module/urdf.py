@@ -10,6 +10,10 @@ from xml.sax.saxutils import escape
 
 from spine_module import params as P
 
+# pybullet gives a link without <inertial> a mass of 1 kg: frame-only links state zero explicitly.
+_MASSLESS = ('    <inertial>\n      <mass value="0"/>\n'
+             '      <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>\n    </inertial>\n')
+
 
 def _inertial(link: P.LinkParams) -> str:
     ixx, iyy, izz = link.inertia_kg_m2
@@ -80,7 +84,7 @@ def spine_urdf(spine: P.SpineParams = P.DEFAULT_SPINE, name: str = "sparc_spine"
         '<?xml version="1.0"?>\n',
         f"<!--\n{escape(INTERPRETATIONS)}-->\n",
         f'<robot name="{name}">\n',
-        '  <link name="torso"/>\n',
+        f'  <link name="torso">\n{_MASSLESS}  </link>\n',
         _revolute(P.BASE_JOINT, "torso", hb.name, 0.0, spine.lower_rad["q1"], spine.upper_rad["q1"],
                   0.0, 100.0),
         _link(hb, True),
@@ -93,7 +97,7 @@ def spine_urdf(spine: P.SpineParams = P.DEFAULT_SPINE, name: str = "sparc_spine"
     parts.append(
         f'  <joint name="ee_joint" type="fixed">\n    <parent link="{fb.name}"/>\n'
         f'    <child link="{P.EE_FRAME}"/>\n    <origin xyz="{fb.length_m:.9g} 0 0" rpy="0 0 0"/>\n'
-        f'  </joint>\n  <link name="{P.EE_FRAME}"/>\n'
+        f'  </joint>\n  <link name="{P.EE_FRAME}">\n{_MASSLESS}  </link>\n'
     )
     parts.append("</robot>\n")
     return "".join(parts)

@@ -1,0 +1,1 @@
+"""pybullet worlds that play the robot: the bench spine and the quadruped."""

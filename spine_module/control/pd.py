@@ -1,0 +1,22 @@
+"""Task-space PD, eq. (5): tau = J_taskᵀ (D(ẋ_d − ẋ) + K(x_d − x)).
+
+No inertia, Coriolis, gravity or friction cancellation: the paper's lighter baseline. Only the task
+Jacobian is needed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spine_module.control.output import ControlOutput, TaskController
+
+
+class TaskPDController(TaskController):
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
+        """One cycle: joint state (rad, rad/s, [q1..q4]) → torques. ddq1 is accepted and unused."""
+        bad = self.check_state(q, dq, ddq1)
+        if bad is not None:
+            return self._fail(bad)
+        self.model.update_kinematics(self.data, q, dq)
+        np.matmul(self.data.J.T, self._spring_damper(), out=self._tau_full)
+        return self._finish(self._tau_full)

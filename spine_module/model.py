@@ -1,0 +1,152 @@
+"""The SPARC spine as a pinocchio model: task pose, Jacobian, J̇q̇, and M, Cq̇, g from RNEA passes.
+
+Following pinocchio, the immutable `SpineModel` (built once from the parameters) is split from the
+`SpineData` workspace that a controller preallocates and reuses every cycle.
+
+Task space (x, z, theta) is the pose of the end-effector frame (tip of the front body) in the hind body's
+frame: x forward (m), z up (m), theta pitch about +y (rad). Because it is relative to the hind body, it
+does not depend on q1; q1 and its rates enter only the dynamics (gravity direction, torso pitching).
+Kinematics are therefore evaluated with q1 = q̇1 = 0, where the hind-body frame is the world frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from spine_module import params as P
+from spine_module.urdf import spine_urdf
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+TASK_ROWS = (0, 2, 4)  # x, z (linear) and pitch about y (angular) rows of a 6-D spatial quantity
+N_ACT = len(P.ACTUATED_JOINTS)
+
+
+class SpineData:
+    """Preallocated workspace of one controller: two pinocchio Data (kinematic and dynamic passes)."""
+
+    def __init__(self, model: pin.Model) -> None:
+        self.kin = model.createData()  # relative kinematics, q1 = 0
+        self.dyn = model.createData()  # dynamics at the true q1
+        self.q_rel = np.zeros(model.nq)
+        self.dq_rel = np.zeros(model.nv)
+        self.zero_v = np.zeros(model.nv)
+        self.J = np.zeros((3, model.nv))  # task Jacobian, column 0 (q1) is zero by construction
+        self.jdot_qdot = np.zeros(3)
+        self.x = np.zeros(3)
+        self.dx = np.zeros(3)
+
+
+class SpineModel:
+    """Immutable model of the chain q1 (base) → q2 → q3 → q4 → end effector."""
+
+    def __init__(self, spine: P.SpineParams = P.DEFAULT_SPINE, gravity_m_s2: float = P.GRAVITY_M_S2) -> None:
+        self.spine = spine
+        self.urdf = spine_urdf(spine)
+        self.model: pin.Model = pin.buildModelFromXML(self.urdf)
+        self.model.gravity.linear = np.array([0.0, 0.0, -gravity_m_s2])
+        # URDF has no armature; the actuators' reflected rotor inertia enters M on the actuated joints
+        self.model.armature[1:] = spine.armature_kg_m2
+        self.ee_frame = self.model.getFrameId(P.EE_FRAME)
+        self.joint_names = tuple(self.model.names[1:])
+        if self.joint_names != P.ALL_JOINTS:
+            raise ValueError(f"unexpected joint order {self.joint_names}, want {P.ALL_JOINTS}")
+        self.nq = self.model.nq
+        self.nv = self.model.nv
+        self.torque_limit_nm = np.full(N_ACT, spine.torque_limit_nm)
+        self.lower_rad = self.model.lowerPositionLimit.copy()
+        self.upper_rad = self.model.upperPositionLimit.copy()
+
+    def create_data(self) -> SpineData:
+        return SpineData(self.model)
+
+    # --- kinematics (relative to the hind body) ------------------------------------------------------
+    def update_kinematics(self, data: SpineData, q: np.ndarray, dq: np.ndarray) -> None:
+        """Fill data.x, data.dx, data.J and data.jdot_qdot for the state (q, dq) (rad, rad/s)."""
+        data.q_rel[:] = q
+        data.q_rel[0] = 0.0
+        data.dq_rel[:] = dq
+        data.dq_rel[0] = 0.0
+        model, kin = self.model, data.kin
+        pin.forwardKinematics(model, kin, data.q_rel, data.dq_rel, data.zero_v)
+        pin.computeJointJacobians(model, kin)
+        oMf = pin.updateFramePlacement(model, kin, self.ee_frame)
+        J6 = pin.getFrameJacobian(model, kin, self.ee_frame, _LWA)
+        data.J[:, :] = J6[TASK_ROWS, :]
+        data.J[:, 0] = 0.0
+        acc = pin.getFrameClassicalAcceleration(model, kin, self.ee_frame, _LWA)
+        data.jdot_qdot[0] = acc.linear[0]
+        data.jdot_qdot[1] = acc.linear[2]
+        data.jdot_qdot[2] = acc.angular[1]
+        R = oMf.rotation
+        data.x[0] = oMf.translation[0]
+        data.x[1] = oMf.translation[2]
+        data.x[2] = math.atan2(R[0, 2], R[0, 0])
+        np.dot(data.J, dq, out=data.dx)
+
+    def task_pose(self, q: np.ndarray, data: SpineData | None = None) -> np.ndarray:
+        """Task pose (x m, z m, theta rad) of the end effector in the hind-body frame."""
+        data = data or self.create_data()
+        self.update_kinematics(data, q, np.zeros(self.model.nv))
+        return data.x.copy()
+
+    def task_jacobian(self, q: np.ndarray, data: SpineData | None = None) -> np.ndarray:
+        data = data or self.create_data()
+        self.update_kinematics(data, q, np.zeros(self.model.nv))
+        return data.J.copy()
+
+    def inverse_kinematics(self, x: np.ndarray, q0: np.ndarray | None = None, tol: float = 1e-12,
+                           max_iter: int = 100) -> np.ndarray:
+        """Joint angles that put the end effector at task pose x (q1 kept from q0). Newton iterations."""
+        q = (P.Q_EQUILIBRIUM if q0 is None else np.asarray(q0, dtype=float)).copy()
+        data = self.create_data()
+        for _ in range(max_iter):
+            self.update_kinematics(data, q, np.zeros(self.model.nv))
+            err = np.asarray(x, dtype=float) - data.x
+            if float(np.max(np.abs(err))) < tol:
+                return q
+            q[1:] += np.linalg.solve(data.J[:, 1:], err)
+        raise ValueError(f"inverse kinematics did not converge for x={x}")
+
+    # --- dynamics from RNEA passes (the paper's approach) ---------------------------------------------
+    def rnea(self, data: SpineData, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Joint torques M(q) ddq + C(q, dq) dq + g(q), N*m, one RNEA pass."""
+        return pin.rnea(self.model, data.dyn, q, dq, ddq)
+
+    def gravity(self, data: SpineData, q: np.ndarray) -> np.ndarray:
+        """g(q) = RNEA(q, 0, 0)."""
+        return self.rnea(data, q, data.zero_v, data.zero_v).copy()
+
+    def bias(self, data: SpineData, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """C(q, dq) dq + g(q) = RNEA(q, dq, 0)."""
+        return self.rnea(data, q, dq, data.zero_v).copy()
+
+    def mass_matrix(self, data: SpineData, q: np.ndarray) -> np.ndarray:
+        """M(q), column i = RNEA(q, 0, e_i) - g(q): nv + 1 RNEA passes."""
+        nv = self.model.nv
+        g = self.gravity(data, q)
+        M = np.empty((nv, nv))
+        e = np.zeros(nv)
+        for i in range(nv):
+            e[:] = 0.0
+            e[i] = 1.0
+            M[:, i] = self.rnea(data, q, data.zero_v, e) - g
+        return M
+
+    def task_inertia(self, q: np.ndarray) -> np.ndarray:
+        """Λ(q) = (J M⁻¹ Jᵀ)⁻¹ of the actuated chain (hind body fixed), kg / kg*m² blocks."""
+        data = self.create_data()
+        self.update_kinematics(data, q, np.zeros(self.model.nv))
+        M = self.mass_matrix(data, q)[1:, 1:]
+        J = data.J[:, 1:]
+        return np.linalg.inv(J @ np.linalg.solve(M, J.T))
+
+    def effective_mass_x(self, q: np.ndarray) -> float:
+        """Apparent mass along task x: 1 / (J M⁻¹ Jᵀ)_xx, kg. What an x-only push feels (Fig. 5 ideal)."""
+        data = self.create_data()
+        self.update_kinematics(data, q, np.zeros(self.model.nv))
+        M = self.mass_matrix(data, q)[1:, 1:]
+        J = data.J[:, 1:]
+        return 1.0 / float((J @ np.linalg.solve(M, J.T))[0, 0])
