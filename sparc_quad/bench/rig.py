@@ -48,9 +48,10 @@ def run(controller: TaskController, duration_s: float, force: ForceLaw | None = 
         q0: np.ndarray | None = None, plant: PlantConfig | None = None, seed: int = 0,
         sample_every: int = 1) -> TrialLog:
     """Run the bench for duration_s with `controller` at 1 kHz; log every `sample_every` steps."""
-    n = int(round(duration_s / P.CONTROL_PERIOD_S))
+    n = round(duration_s / P.CONTROL_PERIOD_S)
     m = n // sample_every
-    log = TrialLog(np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros((m, 3)))
+    log = TrialLog(np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3)), np.zeros(m), np.zeros(m),
+                   np.zeros((m, 3)))
     model = controller.model
     kin = model.create_data()
     f_ext = np.zeros(3)

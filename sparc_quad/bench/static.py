@@ -104,10 +104,11 @@ def format_table(rows: list[StaticRow]) -> str:
             f"paper: {'k_hat':>8} {'R2':>6} {'err%':>5}")
     lines = [head, "-" * len(head)]
     for r in rows:
-        paper = PAPER_TABLE_IV.get(int(round(r.k_cmd)))
+        paper = PAPER_TABLE_IV.get(round(r.k_cmd))
         pk = f"{paper[1]:8.3f} {paper[2]:6.4f} {paper[5]:5.2f}" if paper else "     n/a"
-        lines.append(f"{r.k_cmd:5.0f} | {r.n:5d} {r.k_hat:9.3f} {r.r2:7.4f} [{r.ci95_low:8.3f},{r.ci95_high:9.3f}]"
-                     f" {r.rel_err_pct:6.2f} {r.chunk_mean:7.1f}±{r.chunk_sd:6.2f}   || paper: {pk}")
+        lines.append(f"{r.k_cmd:5.0f} | {r.n:5d} {r.k_hat:9.3f} {r.r2:7.4f}"
+                     f" [{r.ci95_low:8.3f},{r.ci95_high:9.3f}] {r.rel_err_pct:6.2f}"
+                     f" {r.chunk_mean:7.1f}±{r.chunk_sd:6.2f}   || paper: {pk}")
     return "\n".join(lines)
 
 
