@@ -1,0 +1,117 @@
+"""`sparc-quad bench static|dynamic|pd|all`: the paper's bench experiments on the simulated spine."""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+from tqdm import tqdm
+
+from sparc_quad.bench import dynamic, pd, static
+from sparc_quad.sim.plant import PlantConfig
+
+UNITS = "Units: stiffness N/m, damping N*s/m, displacement m, force N, time s."
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from exc
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, default=Path("out/bench"), help="output folder (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed of the first trial (default: 0)")
+    p.add_argument("--plant", type=Path, default=None,
+                   help="plant-model JSON (friction truth, rotor inertia, sensors) instead of the default")
+    p.add_argument("--ideal-plant", action="store_true",
+                   help="plant equal to the controller's model: no friction mismatch, quantisation or noise")
+    p.add_argument("--quick", action="store_true", help="reduced-size run (fewer values, shorter trials)")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="the paper's bench experiments (Table IV, Fig. 5, Fig. 7) in simulation",
+                       description="Run the SPARC paper's bench experiments on the simulated bench. " + UNITS)
+    bsub = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
+    s = bsub.add_parser("static", help="quasi-static push-pull, stiffness by OLS (Table IV, Fig. 4)",
+                        description="Push-pull along x; writes static.json, static.csv, static.png. " + UNITS)
+    s.add_argument("--k", type=_floats, default=static.StaticConfig.k_values, help="k_x values, N/m")
+    s.add_argument("--controller", choices=["impedance", "pd"], default="impedance")
+    _common(s)
+    s.set_defaults(func=run_static)
+    d = bsub.add_parser("dynamic", help="displace 0.037 m and release (Fig. 5)",
+                        description="Release trials; writes dynamic.json and dynamic.png. " + UNITS)
+    d.add_argument("--k", type=_floats, default=dynamic.DynamicConfig.k_values, help="k_x values, N/m")
+    d.add_argument("--b", type=_floats, default=dynamic.DynamicConfig.b_values, help="d_x values, N*s/m")
+    d.add_argument("--trials", type=int, default=dynamic.DynamicConfig.trials, help="trials per case")
+    _common(d)
+    d.set_defaults(func=run_dynamic)
+    q = bsub.add_parser("pd", help="task-space PD vs impedance, quasi-static holds (Fig. 7)",
+                        description="Hand-held displacements; writes pd.json and pd.png. " + UNITS)
+    q.add_argument("--k", type=_floats, default=pd.PDConfig.k_values, help="k_x values, N/m")
+    q.add_argument("--trials", type=int, default=pd.PDConfig.trials, help="trials per k")
+    _common(q)
+    q.set_defaults(func=run_pd)
+    a = bsub.add_parser("all", help="static, dynamic and pd in one go",
+                        description="All three experiments into one folder. " + UNITS)
+    _common(a)
+    a.set_defaults(func=run_all)
+
+
+def _plant(args: argparse.Namespace) -> PlantConfig:
+    plant = PlantConfig.load(args.plant) if args.plant else PlantConfig()
+    return plant.ideal() if args.ideal_plant else plant
+
+
+def run_static(args: argparse.Namespace) -> int:
+    cfg = static.StaticConfig(k_values=getattr(args, "k", static.StaticConfig.k_values),
+                              controller=getattr(args, "controller", "impedance"), seed=args.seed,
+                              plant=_plant(args))
+    if args.quick:
+        cfg = replace(cfg, period_s=4.0, cycles=1, sample_every=3)
+    rows, raw = static.run_static(cfg, tqdm(cfg.k_values, desc="static k_x", unit="k"))
+    static.write_static(rows, raw, cfg, args.out)
+    print(static.format_table(rows))
+    print(f"wrote {args.out / 'static.json'}, static.csv, static.png")
+    return 0
+
+
+def run_dynamic(args: argparse.Namespace) -> int:
+    cfg = dynamic.DynamicConfig(k_values=getattr(args, "k", dynamic.DynamicConfig.k_values),
+                                b_values=getattr(args, "b", dynamic.DynamicConfig.b_values),
+                                trials=getattr(args, "trials", dynamic.DynamicConfig.trials), seed=args.seed,
+                                plant=_plant(args))
+    if args.quick:
+        cfg = replace(cfg, trials=3, duration_s=1.2)
+    pairs = [(k, b) for k in cfg.k_values for b in cfg.b_values]
+    cases, curves = dynamic.run_dynamic(cfg, tqdm(pairs, desc="dynamic (k, b)", unit="case"))
+    dynamic.write_dynamic(cases, curves, cfg, args.out)
+    print(f"{'k':>5} {'b':>5} {'NRMSE':>7} {'zeta':>6} {'fit':>6} {'lag0':>6} {'drift':>6} {'growth':>6}")
+    for c in cases:
+        def f(v: float | None) -> str:
+            return f"{v:6.3f}" if v is not None else "     -"
+        print(f"{c.k:5.0f} {c.b:5.0f} {c.nrmse:7.4f} {c.zeta_ideal:6.3f} {f(c.zeta_fit)} "
+              f"{f(c.phase_lag_first_rad)} {f(c.phase_drift_rad)} {f(c.amplitude_growth)}")
+    print(f"wrote {args.out / 'dynamic.json'}, dynamic.png")
+    return 0
+
+
+def run_pd(args: argparse.Namespace) -> int:
+    cfg = pd.PDConfig(k_values=getattr(args, "k", pd.PDConfig.k_values),
+                      trials=getattr(args, "trials", pd.PDConfig.trials), seed=args.seed, plant=_plant(args))
+    if args.quick:
+        cfg = replace(cfg, trials=3, displacements_m=(0.01, 0.02, 0.03))
+    pairs = [(c, k) for c in cfg.controllers for k in cfg.k_values]
+    rows = pd.run_pd(cfg, tqdm(pairs, desc="pd (controller, k_x)", unit="k"))
+    pd.write_pd(rows, cfg, args.out)
+    print(f"{'controller':>10} {'k_x':>5} {'slope mean':>10} {'slope SD':>9} {'R2':>7}")
+    for r in rows:
+        print(f"{r.controller:>10} {r.k_cmd:5.0f} {r.slope_mean:10.1f} {r.slope_sd:9.2f} {r.r2_pooled:7.4f}")
+    print(f"wrote {args.out / 'pd.json'}, pd.png")
+    return 0
+
+
+def run_all(args: argparse.Namespace) -> int:
+    return run_static(args) or run_dynamic(args) or run_pd(args)
