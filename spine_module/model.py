@@ -6,7 +6,8 @@ Following pinocchio, the immutable `SpineModel` (built once from the parameters)
 Task space (x, z, theta) is the pose of the end-effector frame (tip of the front body) in the hind body's
 frame: x forward (m), z up (m), theta pitch about +y (rad). Because it is relative to the hind body, it
 does not depend on q1; q1 and its rates enter only the dynamics (gravity direction, torso pitching).
-Kinematics are therefore evaluated with q1 = q̇1 = 0, where the hind-body frame is the world frame.
+Kinematics are therefore evaluated on a reduced model with q1 locked at 0 (pinocchio's
+`buildReducedModel`), whose world frame is the hind-body frame.
 """
 
 from __future__ import annotations
@@ -20,20 +21,21 @@ from spine_module import params as P
 from spine_module.urdf import spine_urdf
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-TASK_ROWS = (0, 2, 4)  # x, z (linear) and pitch about y (angular) rows of a 6-D spatial quantity
+# x, z (linear) and pitch about y (angular) are rows 0, 2, 4 of a 6-D spatial quantity: a [0::2] slice
+TASK_ROWS = slice(0, 6, 2)
 N_ACT = len(P.ACTUATED_JOINTS)
 
 
 class SpineData:
-    """Preallocated workspace of one controller: two pinocchio Data (kinematic and dynamic passes)."""
+    """Preallocated workspace of one controller: pinocchio Data for kinematics and dynamics."""
 
-    def __init__(self, model: pin.Model) -> None:
-        self.kin = model.createData()  # relative kinematics, q1 = 0
+    def __init__(self, model: pin.Model, kin_model: pin.Model) -> None:
+        self.kin = kin_model.createData()  # relative kinematics (q1 locked at 0)
         self.dyn = model.createData()  # dynamics at the true q1
-        self.q_rel = np.zeros(model.nq)
-        self.dq_rel = np.zeros(model.nv)
         self.zero_v = np.zeros(model.nv)
+        self.zero_act = np.zeros(kin_model.nv)
         self.J = np.zeros((3, model.nv))  # task Jacobian, column 0 (q1) is zero by construction
+        self.J_act = self.J[:, 1:]  # view: the actuated columns
         self.jdot_qdot = np.zeros(3)
         self.x = np.zeros(3)
         self.dx = np.zeros(3)
@@ -49,7 +51,8 @@ class SpineModel:
         self.model.gravity.linear = np.array([0.0, 0.0, -gravity_m_s2])
         # URDF has no armature; the actuators' reflected rotor inertia enters M on the actuated joints
         self.model.armature[1:] = spine.armature_kg_m2
-        self.ee_frame = self.model.getFrameId(P.EE_FRAME)
+        self.kin_model: pin.Model = pin.buildReducedModel(self.model, [1], np.zeros(self.model.nq))
+        self.ee_frame = self.kin_model.getFrameId(P.EE_FRAME)
         self.joint_names = tuple(self.model.names[1:])
         if self.joint_names != P.ALL_JOINTS:
             raise ValueError(f"unexpected joint order {self.joint_names}, want {P.ALL_JOINTS}")
@@ -60,31 +63,23 @@ class SpineModel:
         self.upper_rad = self.model.upperPositionLimit.copy()
 
     def create_data(self) -> SpineData:
-        return SpineData(self.model)
+        return SpineData(self.model, self.kin_model)
 
     # --- kinematics (relative to the hind body) ------------------------------------------------------
     def update_kinematics(self, data: SpineData, q: np.ndarray, dq: np.ndarray) -> None:
         """Fill data.x, data.dx, data.J and data.jdot_qdot for the state (q, dq) (rad, rad/s)."""
-        data.q_rel[:] = q
-        data.q_rel[0] = 0.0
-        data.dq_rel[:] = dq
-        data.dq_rel[0] = 0.0
-        model, kin = self.model, data.kin
-        pin.forwardKinematics(model, kin, data.q_rel, data.dq_rel, data.zero_v)
-        pin.computeJointJacobians(model, kin)
-        oMf = pin.updateFramePlacement(model, kin, self.ee_frame)
-        J6 = pin.getFrameJacobian(model, kin, self.ee_frame, _LWA)
-        data.J[:, :] = J6[TASK_ROWS, :]
-        data.J[:, 0] = 0.0
-        acc = pin.getFrameClassicalAcceleration(model, kin, self.ee_frame, _LWA)
-        data.jdot_qdot[0] = acc.linear[0]
-        data.jdot_qdot[1] = acc.linear[2]
-        data.jdot_qdot[2] = acc.angular[1]
-        R = oMf.rotation
-        data.x[0] = oMf.translation[0]
-        data.x[1] = oMf.translation[2]
+        kin_model, kin, fid = self.kin_model, data.kin, self.ee_frame
+        q_act, dq_act = q[1:], dq[1:]
+        pin.forwardKinematics(kin_model, kin, q_act, dq_act, data.zero_act)
+        pin.computeJointJacobians(kin_model, kin)
+        oMf = pin.updateFramePlacement(kin_model, kin, fid)
+        data.J_act[:] = pin.getFrameJacobian(kin_model, kin, fid, _LWA)[TASK_ROWS]
+        data.jdot_qdot[:] = pin.getFrameClassicalAcceleration(kin_model, kin, fid, _LWA).vector[TASK_ROWS]
+        t, R = oMf.translation, oMf.rotation
+        data.x[0] = t[0]
+        data.x[1] = t[2]
         data.x[2] = math.atan2(R[0, 2], R[0, 0])
-        np.dot(data.J, dq, out=data.dx)
+        np.dot(data.J_act, dq_act, out=data.dx)
 
     def task_pose(self, q: np.ndarray, data: SpineData | None = None) -> np.ndarray:
         """Task pose (x m, z m, theta rad) of the end effector in the hind-body frame."""

@@ -11,6 +11,7 @@ J† = Jᵀ(JJᵀ + λ²I)⁻¹ is the damped least-squares pseudo-inverse.
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg.lapack import dgesv as _gesv
 
 from spine_module import params as P
 from spine_module.control.friction import StribeckFriction
@@ -26,28 +27,29 @@ class ImpedanceController(TaskController):
         self.friction_enabled = friction is not None
         self.lambda2 = dls_lambda**2
         self._ddq = np.zeros(model.nv)
+        self._ddq_act = self._ddq[1:]
         self._a = np.zeros(3)
         self._jjt = np.zeros((3, 3))
-        self._eye = np.eye(3)
+        self._lambda2_eye = self.lambda2 * np.eye(3)
 
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
         """One cycle: joint state (rad, rad/s, [q1..q4]) and torso acceleration q̈1 (rad/s²) → torques."""
-        bad = self.check_state(q, dq, ddq1)
-        if bad is not None:
-            return self._fail(bad)
-        model, data = self.model, self.data
-        model.update_kinematics(data, q, dq)
-        J = data.J
-        # desired task acceleration minus drift, mapped through the DLS pseudo-inverse
-        np.subtract(self.ddx_d, data.jdot_qdot, out=self._a)
-        np.matmul(J, J.T, out=self._jjt)
-        self._jjt += self.lambda2 * self._eye
-        y = np.linalg.solve(self._jjt, self._a)
-        np.matmul(J.T, y, out=self._ddq)
-        self._ddq[0] = ddq1
-        tau = self._tau_full
-        tau[:] = model.rnea(data, q, dq, self._ddq)
-        tau += J.T @ self._spring_damper()
-        if self.friction_enabled and self.friction is not None:
-            tau[1:] += self.friction.torque(dq[1:])
-        return self._finish(tau)
+        try:
+            model, data = self.model, self.data
+            model.update_kinematics(data, q, dq)
+            J = data.J_act
+            # desired task acceleration minus drift, mapped through the DLS pseudo-inverse
+            np.subtract(self.ddx_d, data.jdot_qdot, out=self._a)
+            np.matmul(J, J.T, out=self._jjt)
+            self._jjt += self._lambda2_eye
+            y = _gesv(self._jjt, self._a)[2]
+            np.matmul(J.T, y, out=self._ddq_act)
+            self._ddq[0] = ddq1
+            tau = self._tau_full
+            tau[:] = model.rnea(data, q, dq, self._ddq)
+            tau[1:] += J.T @ self._spring_damper()
+            if self.friction_enabled and self.friction is not None:
+                tau[1:] += self.friction.torque(dq[1:])
+        except Exception:  # wrong shapes or types: name the input, never raise in the loop
+            return self._fail(self.check_state(q, dq, ddq1) or "controller failed on this input")
+        return self._finish(tau, q, dq, ddq1)

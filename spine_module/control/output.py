@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -51,6 +52,8 @@ class TaskController:
         self._derr = np.zeros(3)
         self._f = np.zeros(3)
         self._tau_full = np.zeros(model.nq)
+        self._tau_max = model.torque_limit_nm.copy()
+        self._tau_min = -self._tau_max
         self.set_gains(k, d)
 
     def set_gains(self, k: object | None = None, d: object | None = None) -> None:
@@ -96,12 +99,13 @@ class TaskController:
         out.error = reason
         return out
 
-    def _finish(self, tau_full: np.ndarray) -> ControlOutput:
+    def _finish(self, tau_full: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq1: float) -> ControlOutput:
         out, data = self.out, self.data
         out.tau_raw[:] = tau_full[1:]
-        if not np.all(np.isfinite(out.tau_raw)):
-            return self._fail("controller produced a non-finite torque")
-        np.clip(out.tau_raw, -self.model.torque_limit_nm, self.model.torque_limit_nm, out=out.tau)
+        # NaN/inf in any input propagates into the torque or the pose: one cheap check on the way out
+        if not (math.isfinite(out.tau_raw.sum()) and math.isfinite(data.x.sum())):
+            return self._fail(self.check_state(q, dq, ddq1) or "controller produced a non-finite torque")
+        np.clip(out.tau_raw, self._tau_min, self._tau_max, out=out.tau)
         np.not_equal(out.tau, out.tau_raw, out=out.saturated)
         out.x[:] = data.x
         out.dx[:] = data.dx
@@ -112,6 +116,7 @@ class TaskController:
     @staticmethod
     def check_state(q: np.ndarray, dq: np.ndarray, ddq1: float) -> str | None:
         """Name the first bad input, or None when q (4,), dq (4,) and ddq1 are finite."""
+        q, dq = np.asarray(q), np.asarray(dq)
         if q.shape != (4,) or dq.shape != (4,):
             return f"state must be 4 joints, got q{q.shape} dq{dq.shape}"
         if not np.all(np.isfinite(q)):

@@ -14,9 +14,9 @@ from spine_module.control.output import ControlOutput, TaskController
 class TaskPDController(TaskController):
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
         """One cycle: joint state (rad, rad/s, [q1..q4]) → torques. ddq1 is accepted and unused."""
-        bad = self.check_state(q, dq, ddq1)
-        if bad is not None:
-            return self._fail(bad)
-        self.model.update_kinematics(self.data, q, dq)
-        np.matmul(self.data.J.T, self._spring_damper(), out=self._tau_full)
-        return self._finish(self._tau_full)
+        try:
+            self.model.update_kinematics(self.data, q, dq)
+            np.matmul(self.data.J.T, self._spring_damper(), out=self._tau_full)
+        except Exception:  # wrong shapes or types: name the input, never raise in the loop
+            return self._fail(self.check_state(q, dq, ddq1) or "controller failed on this input")
+        return self._finish(self._tau_full, q, dq, 0.0)
