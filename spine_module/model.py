@@ -138,6 +138,17 @@ class SpineModel:
         J = data.J[:, 1:]
         return np.linalg.inv(J @ np.linalg.solve(M, J.T))
 
+    def modal_mass_x(self, q: np.ndarray, k: np.ndarray) -> float:
+        """Effective mass of the x-dominant mode of the rendered spring Λ ẍ + K x = 0, kg: k_x / ω².
+
+        Under eq. 3 the three task axes share the non-diagonal Λ, so an x release also moves θ and z;
+        this mass, unlike 1/(J M⁻¹ Jᵀ)_xx, gives that mode's period.
+        """
+        K = np.diag(np.asarray(k, dtype=float))
+        w2, vecs = np.linalg.eig(np.linalg.solve(self.task_inertia(q), K))
+        mode = int(np.argmax(np.abs(vecs[0]) / np.abs(vecs).max(axis=0)))
+        return float(K[0, 0] / w2[mode].real)
+
     def effective_mass_x(self, q: np.ndarray) -> float:
         """Apparent mass along task x: 1 / (J M⁻¹ Jᵀ)_xx, kg. What an x-only push feels (Fig. 5 ideal)."""
         data = self.create_data()

@@ -60,23 +60,26 @@ def test_static_detects_a_wrong_stiffness():
 
 @pytest.fixture(scope="module")
 def dynamic_cases():
-    cfg = dynamic.DynamicConfig(k_values=(300.0,), trials=2, duration_s=1.5)
-    return {c.b: c for c in dynamic.run_dynamic(cfg)[0]}
+    cfg = dynamic.DynamicConfig(k_values=(300.0, 500.0), trials=2, duration_s=1.5)
+    return {(c.k, c.b): c for c in dynamic.run_dynamic(cfg)[0]}
 
 
 def test_dynamic_high_damping_follows_ideal(dynamic_cases):
-    for b in (20.0, 40.0):
-        assert dynamic_cases[b].nrmse < 0.05, dynamic_cases[b]
+    for k in (300.0, 500.0):
+        for b in (20.0, 40.0):
+            assert dynamic_cases[(k, b)].nrmse < 0.03, dynamic_cases[(k, b)]
 
 
 def test_dynamic_undamped_grows_with_overcompensated_friction(dynamic_cases):
-    assert dynamic_cases[0.0].amplitude_growth > 1.1
+    for k in (300.0, 500.0):
+        assert dynamic_cases[(k, 0.0)].amplitude_growth > 1.1
 
 
 def test_dynamic_light_damping_drifts_in_phase_as_it_decays(dynamic_cases):
-    c = dynamic_cases[2.0]
-    assert c.amplitude_growth < 1.0  # decays
-    assert c.phase_drift_rad > 0.5  # and slips out of phase with the ideal response
+    for k in (300.0, 500.0):
+        assert dynamic_cases[(k, 2.0)].amplitude_growth < 0.8  # decays
+    drift = [abs(dynamic_cases[(k, 2.0)].phase_drift_rad) for k in (300.0, 500.0)]
+    assert max(drift) > 0.1  # and slips out of phase with the ideal as it does
 
 
 def test_dynamic_friction_mismatch_shows_in_the_decay_rate():
@@ -85,7 +88,7 @@ def test_dynamic_friction_mismatch_shows_in_the_decay_rate():
     cfg = dynamic.DynamicConfig(k_values=(300.0,), b_values=(2.0,), trials=1, duration_s=1.0)
     real = dynamic.run_dynamic(cfg)[0][0]
     ideal = dynamic.run_dynamic(replace(cfg, plant=PlantConfig().ideal()))[0][0]
-    assert ideal.zeta_fit == pytest.approx(ideal.zeta_ideal, rel=0.15)
+    assert ideal.zeta_fit == pytest.approx(ideal.zeta_ideal, rel=0.2)  # d_z, d_theta damp the mode too
     assert real.zeta_fit < 0.75 * real.zeta_ideal
 
 
