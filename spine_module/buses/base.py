@@ -56,6 +56,8 @@ class MotorFeedback:
     temperature_c: np.ndarray = field(default_factory=lambda: _zeros(3))  # deg C
     mode: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int32))  # 0 reset, 1 cal, 2 run
     fault: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int32))  # per-motor fault bits
+    # Module load cells (hind, front spine link), N; NaN when the backend has none (e.g. motors-only CAN).
+    load_cell_n: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))
     stamp_s: float = 0.0
     seq: int = 0
 

@@ -1,0 +1,321 @@
+"""LCM encode/decode with validation: every decoded message is finite and in range, or rejected with
+a `MessageError` that names the channel and the bad field (`SPARC_SPINE_COMMAND.k[0]: ...`).
+
+A message whose 8-byte fingerprint is not the channel's type raises `FingerprintError` naming both the
+expected type and, when it is one of ours, the type that was actually sent.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+from io import BytesIO
+
+import numpy as np
+
+from spine_module import params
+from spine_module.buses.base import MotorCommand, MotorFeedback
+from spine_module.messages import channels
+from spine_module.messages.lcmt.sparc import (
+    heartbeat_t,
+    motor_command_t,
+    motor_feedback_t,
+    spine_command_t,
+    spine_state_t,
+    torso_state_t,
+)
+from spine_module.messages.types import Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
+
+LCM_TYPES = (torso_state_t, spine_command_t, spine_state_t, motor_command_t, motor_feedback_t, heartbeat_t)
+
+TYPE_BY_CHANNEL: dict[str, type] = {
+    channels.TORSO_STATE: torso_state_t,
+    channels.SPINE_COMMAND: spine_command_t,
+    channels.SPINE_STATE: spine_state_t,
+    channels.MOTOR_COMMAND: motor_command_t,
+    channels.MOTOR_FEEDBACK: motor_feedback_t,
+    channels.HEARTBEAT_NODE: heartbeat_t,
+    channels.HEARTBEAT_ROBOT: heartbeat_t,
+}
+
+
+class MessageError(ValueError):
+    """A message was rejected. `field` is e.g. "k[0]" ("" for whole-message errors)."""
+
+    def __init__(self, channel: str, field: str, reason: str):
+        self.channel, self.field, self.reason = channel, field, reason
+        where = f"{channel}.{field}" if field else channel
+        super().__init__(f"{where}: {reason}")
+
+
+class FingerprintError(MessageError):
+    """The payload's LCM fingerprint is not the channel's type (different or stale lcm_types)."""
+
+
+def type_name(cls: type) -> str:
+    return f"sparc.{cls.__name__}"
+
+
+_BY_FINGERPRINT = {cls._get_packed_fingerprint(): cls for cls in LCM_TYPES}
+
+
+# --- validation ranges ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Range:
+    lo: float
+    hi: float
+    unit: str = ""
+    nan_ok: bool = False
+
+
+_PI = math.pi
+_TAU_MAX = params.TORQUE_LIMIT_NM
+_VEL_MAX = params.VELOCITY_LIMIT_RAD_S
+_REACH = sum(link.length_m for link in params.LINKS)  # straight spine, m
+# Interface sanity limits. They reject garbage, not merely unusual commands: gains up to 10x the paper's.
+K_MAX = (5000.0, 10000.0, 150.0)  # N/m, N/m, N*m/rad
+D_MAX = (200.0, 200.0, 10.0)  # N*s/m, N*s/m, N*m*s/rad
+
+TORSO_RANGES = {
+    "q1": Range(-_PI, _PI, "rad"),
+    "dq1": Range(-50.0, 50.0, "rad/s"),
+    "ddq1": Range(-5000.0, 5000.0, "rad/s^2"),
+    "quat": Range(-1.0 - 1e-6, 1.0 + 1e-6, ""),
+    "omega": Range(-50.0, 50.0, "rad/s"),
+}
+COMMAND_RANGES = {
+    "x_d": [Range(0.0, _REACH, "m"), Range(-_REACH, _REACH, "m"), Range(-_PI, _PI, "rad")],
+    "dx_d": [Range(-5.0, 5.0, "m/s"), Range(-5.0, 5.0, "m/s"), Range(-50.0, 50.0, "rad/s")],
+    "ddx_d": [Range(-500.0, 500.0, "m/s^2"), Range(-500.0, 500.0, "m/s^2"),
+              Range(-5000.0, 5000.0, "rad/s^2")],
+    "k": [Range(0.0, K_MAX[0], "N/m"), Range(0.0, K_MAX[1], "N/m"), Range(0.0, K_MAX[2], "N*m/rad")],
+    "d": [Range(0.0, D_MAX[0], "N*s/m"), Range(0.0, D_MAX[1], "N*s/m"), Range(0.0, D_MAX[2], "N*m*s/rad")],
+    "tau_ff": Range(-_TAU_MAX, _TAU_MAX, "N*m"),
+}
+FEEDBACK_RANGES = {
+    "angle": Range(-4 * _PI, 4 * _PI, "rad"),
+    "velocity": Range(-1.5 * _VEL_MAX, 1.5 * _VEL_MAX, "rad/s"),
+    "torque": Range(-1.5 * _TAU_MAX, 1.5 * _TAU_MAX, "N*m"),
+    "temperature": Range(-40.0, 200.0, "degC"),
+    "load_cell": Range(-2000.0, 2000.0, "N", nan_ok=True),
+}
+MOTOR_COMMAND_RANGES = {
+    "position": Range(-4 * _PI, 4 * _PI, "rad"),
+    "velocity": Range(-_VEL_MAX, _VEL_MAX, "rad/s"),
+    "kp": Range(0.0, 500.0, "N*m/rad"),
+    "kd": Range(0.0, 5.0, "N*m*s/rad"),
+    "torque": Range(-_TAU_MAX, _TAU_MAX, "N*m"),
+}
+
+
+def _check_value(channel: str, label: str, v: float, r: Range) -> None:
+    if v != v:  # NaN
+        if r.nan_ok:
+            return
+        raise MessageError(channel, label, "NaN")
+    if v in (math.inf, -math.inf):
+        raise MessageError(channel, label, f"{v} (infinite)")
+    if not r.lo <= v <= r.hi:
+        raise MessageError(channel, label, f"{v:.6g} outside [{r.lo:.6g}, {r.hi:.6g}] {r.unit}".rstrip())
+
+
+def _check_fields(channel: str, msg: object, ranges: dict) -> None:
+    for name, r in ranges.items():
+        value = getattr(msg, name)
+        if isinstance(value, (list, tuple)):
+            for i, v in enumerate(value):
+                _check_value(channel, f"{name}[{i}]", float(v), r[i] if isinstance(r, list) else r)
+        else:
+            _check_value(channel, name, float(value), r)
+
+
+def _check_header(channel: str, msg: object) -> None:
+    if msg.seq < 0:
+        raise MessageError(channel, "seq", f"{msg.seq} is negative")
+    if msg.utime < 0:
+        raise MessageError(channel, "utime", f"{msg.utime} is negative")
+
+
+# --- raw decode -------------------------------------------------------------------------------------
+def decode_raw(channel: str, data: bytes, cls: type | None = None):
+    """Bytes -> generated LCM object, checking fingerprint and length. No range checks."""
+    if cls is None:
+        cls = TYPE_BY_CHANNEL.get(channel)
+        if cls is None:
+            raise MessageError(channel, "", "unknown channel (not a sparc-quad channel)")
+    data = bytes(data)
+    expected = cls._get_packed_fingerprint()
+    if len(data) < 8:
+        raise MessageError(channel, "", f"malformed {type_name(cls)}: {len(data)} bytes, shorter than a "
+                                        "fingerprint")
+    got = data[:8]
+    if got != expected:
+        other = _BY_FINGERPRINT.get(got)
+        what = (f"a {type_name(other)}" if other is not None
+                else "an unknown type (stale or foreign lcm_types?)")
+        raise FingerprintError(channel, "", f"wrong fingerprint 0x{got.hex()}: expected {type_name(cls)} "
+                                            f"(0x{expected.hex()}), got {what}")
+    buf = BytesIO(data)
+    try:
+        msg = cls.decode(buf)
+    except (struct.error, ValueError, UnicodeDecodeError, IndexError) as exc:
+        raise MessageError(channel, "", f"malformed {type_name(cls)} ({len(data)} bytes): {exc}") from exc
+    if buf.tell() != len(data):
+        extra = len(data) - buf.tell()
+        raise MessageError(channel, "", f"malformed {type_name(cls)}: {extra} trailing bytes")
+    return msg
+
+
+def _s(utime: int) -> float:
+    return utime * 1e-6
+
+
+def _us(stamp_s: float) -> int:
+    return round(stamp_s * 1e6)
+
+
+# --- per-type decode (validated) ------------------------------------------------------------------
+def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
+    m = decode_raw(channel, data, torso_state_t)
+    _check_header(channel, m)
+    ranges = TORSO_RANGES if m.ddq1_valid else {k: v for k, v in TORSO_RANGES.items() if k != "ddq1"}
+    _check_fields(channel, m, ranges)
+    norm = math.sqrt(sum(c * c for c in m.quat))
+    if not 0.9 <= norm <= 1.1:
+        raise MessageError(channel, "quat", f"norm {norm:.6g} is not 1")
+    return TorsoState(q1=m.q1, dq1=m.dq1, ddq1=m.ddq1 if m.ddq1_valid else 0.0, ddq1_valid=bool(m.ddq1_valid),
+                      quat=np.array(m.quat) / norm, omega=np.array(m.omega), stamp_s=_s(m.utime), seq=m.seq)
+
+
+def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
+    m = decode_raw(channel, data, spine_command_t)
+    _check_header(channel, m)
+    try:
+        mode = Mode(m.mode)
+    except ValueError:
+        raise MessageError(channel, "mode", f"{m.mode} is not a mode (0..{max(Mode)})") from None
+    _check_fields(channel, m, COMMAND_RANGES)
+    return SpineCommand(mode=mode, x_d=np.array(m.x_d), dx_d=np.array(m.dx_d), ddx_d=np.array(m.ddx_d),
+                        k=np.array(m.k), d=np.array(m.d), friction_compensation=bool(m.friction_compensation),
+                        tau_ff=np.array(m.tau_ff), reset=bool(m.reset), stamp_s=_s(m.utime), seq=m.seq)
+
+
+def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> Heartbeat:
+    m = decode_raw(channel, data, heartbeat_t)
+    _check_header(channel, m)
+    return Heartbeat(sender=m.sender, fault=bool(m.fault), reset_count=m.reset_count, stamp_s=_s(m.utime),
+                     seq=m.seq)
+
+
+def decode_motor_feedback(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -> MotorFeedback:
+    m = decode_raw(channel, data, motor_feedback_t)
+    _check_header(channel, m)
+    _check_fields(channel, m, FEEDBACK_RANGES)
+    for i, mode in enumerate(m.mode):
+        if mode not in (0, 1, 2):
+            raise MessageError(channel, f"mode[{i}]", f"{mode} is not a motor mode (0 reset, 1 cal, 2 run)")
+    return MotorFeedback(q=np.array(m.angle), dq=np.array(m.velocity), tau=np.array(m.torque),
+                         temperature_c=np.array(m.temperature), mode=np.array(m.mode, dtype=np.int32),
+                         fault=np.array(m.fault, dtype=np.int32), load_cell_n=np.array(m.load_cell),
+                         stamp_s=_s(m.utime), seq=m.seq)
+
+
+def decode_motor_command(data: bytes, channel: str = channels.MOTOR_COMMAND) -> tuple[MotorCommand, int]:
+    """Returns (command, feedback_seq it answers; -1 if none)."""
+    m = decode_raw(channel, data, motor_command_t)
+    _check_header(channel, m)
+    _check_fields(channel, m, MOTOR_COMMAND_RANGES)
+    cmd = MotorCommand(tau_ff=np.array(m.torque), q_des=np.array(m.position), dq_des=np.array(m.velocity),
+                       kp=np.array(m.kp), kd=np.array(m.kd), enable=bool(m.enable), stamp_s=_s(m.utime),
+                       seq=m.seq)
+    return cmd, m.feedback_seq
+
+
+def decode_state(data: bytes, channel: str = channels.SPINE_STATE) -> SpineState:
+    """Spine state (for tools and tests): fingerprint and length checked; values reported as sent."""
+    m = decode_raw(channel, data, spine_state_t)
+    return SpineState(stamp_s=_s(m.utime), seq=m.seq, mode=Mode(m.mode),
+                      requested_mode=Mode(m.requested_mode),
+                      faults=Fault(m.faults), rejected=m.rejected, q=np.array(m.q), dq=np.array(m.dq),
+                      tau_cmd=np.array(m.tau_cmd), tau_est=np.array(m.tau_est), x=np.array(m.x),
+                      dx=np.array(m.dx), gain_scale=m.gain_scale, load_cell=np.array(m.load_cell),
+                      temperature=np.array(m.temperature), period=m.period, jitter_max=m.jitter_max,
+                      compute=m.compute, feedback_seq=m.feedback_seq, command_seq=m.command_seq,
+                      torso_seq=m.torso_seq)
+
+
+DECODERS = {
+    channels.TORSO_STATE: decode_torso,
+    channels.SPINE_COMMAND: decode_command,
+    channels.SPINE_STATE: decode_state,
+    channels.MOTOR_COMMAND: decode_motor_command,
+    channels.MOTOR_FEEDBACK: decode_motor_feedback,
+    channels.HEARTBEAT_NODE: decode_heartbeat,
+    channels.HEARTBEAT_ROBOT: decode_heartbeat,
+}
+
+
+def decode(channel: str, data: bytes):
+    """Decode and validate a message of any sparc-quad channel."""
+    fn = DECODERS.get(channel)
+    if fn is None:
+        raise MessageError(channel, "", "unknown channel (not a sparc-quad channel)")
+    return fn(data, channel)
+
+
+# --- encode -----------------------------------------------------------------------------------------
+def _l(a, n: int = 3) -> list[float]:
+    return [float(v) for v in np.asarray(a, dtype=float).reshape(n)]
+
+
+def encode_torso(t: TorsoState) -> bytes:
+    m = torso_state_t()
+    m.utime, m.seq = _us(t.stamp_s), int(t.seq)
+    m.q1, m.dq1, m.ddq1, m.ddq1_valid = float(t.q1), float(t.dq1), float(t.ddq1), bool(t.ddq1_valid)
+    m.quat, m.omega = _l(t.quat, 4), _l(t.omega)
+    return m.encode()
+
+
+def encode_command(c: SpineCommand) -> bytes:
+    m = spine_command_t()
+    m.utime, m.seq, m.mode = _us(c.stamp_s), int(c.seq), int(c.mode)
+    m.x_d, m.dx_d, m.ddx_d, m.k, m.d = _l(c.x_d), _l(c.dx_d), _l(c.ddx_d), _l(c.k), _l(c.d)
+    m.friction_compensation, m.tau_ff, m.reset = bool(c.friction_compensation), _l(c.tau_ff), bool(c.reset)
+    return m.encode()
+
+
+def encode_heartbeat(h: Heartbeat) -> bytes:
+    m = heartbeat_t()
+    m.utime, m.seq, m.sender, m.fault, m.reset_count = (_us(h.stamp_s), int(h.seq), h.sender, bool(h.fault),
+                                                        int(h.reset_count))
+    return m.encode()
+
+
+def encode_motor_feedback(f: MotorFeedback) -> bytes:
+    m = motor_feedback_t()
+    m.utime, m.seq = _us(f.stamp_s), int(f.seq)
+    m.angle, m.velocity, m.torque, m.temperature = _l(f.q), _l(f.dq), _l(f.tau), _l(f.temperature_c)
+    m.mode = [int(v) for v in np.asarray(f.mode).reshape(3)]
+    m.fault = [int(v) for v in np.asarray(f.fault).reshape(3)]
+    m.load_cell = _l(f.load_cell_n, 2)
+    return m.encode()
+
+
+def encode_motor_command(c: MotorCommand, feedback_seq: int = -1) -> bytes:
+    m = motor_command_t()
+    m.utime, m.seq, m.feedback_seq, m.enable = _us(c.stamp_s), int(c.seq), int(feedback_seq), bool(c.enable)
+    m.position, m.velocity, m.kp, m.kd, m.torque = _l(c.q_des), _l(c.dq_des), _l(c.kp), _l(c.kd), _l(c.tau_ff)
+    return m.encode()
+
+
+def encode_state(s: SpineState) -> bytes:
+    m = spine_state_t()
+    m.utime, m.seq, m.mode, m.requested_mode = _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode)
+    m.faults, m.rejected = int(s.faults), s.rejected
+    m.q, m.dq, m.tau_cmd, m.tau_est = _l(s.q, 4), _l(s.dq, 4), _l(s.tau_cmd), _l(s.tau_est)
+    m.x, m.dx, m.gain_scale = _l(s.x), _l(s.dx), float(s.gain_scale)
+    m.load_cell, m.temperature = _l(s.load_cell, 2), _l(s.temperature)
+    m.period, m.jitter_max, m.compute = float(s.period), float(s.jitter_max), float(s.compute)
+    m.feedback_seq, m.command_seq, m.torso_seq = int(s.feedback_seq), int(s.command_seq), int(s.torso_seq)
+    return m.encode()
