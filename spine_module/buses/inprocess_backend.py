@@ -1,0 +1,16 @@
+"""Registry entry for `--motors inprocess`: the node and the pybullet bench spine in one process.
+
+The robot end of the link is driven by the caller (`sparc_quad.sim.bench_robot`); from the command line
+`spine-node --motors inprocess` runs the bench robot in the same process (see `sparc_quad.cli.node`).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from spine_module.buses.inprocess import InProcessBus, InProcessLink
+
+
+def make_bus(args: argparse.Namespace, lc=None) -> InProcessBus:
+    link = getattr(args, "inprocess_link", None)
+    return InProcessBus(link if link is not None else InProcessLink())

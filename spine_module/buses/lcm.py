@@ -1,0 +1,74 @@
+"""LCM motor bus: the node's motors are a (simulated) robot on the other end of an LCM URL.
+
+Channels (see README): commands go out on SPARC_MOTOR_COMMAND (sparc.motor_command_t, carrying the seq
+of the feedback they answer, for lockstep), feedback comes in on SPARC_MOTOR_FEEDBACK
+(sparc.motor_feedback_t), decoded and validated by `spine_module.messages`. A rejected feedback message
+raises `MotorBusError` from `receive` with the `MessageError` (naming the field) as its cause.
+
+Pass `lc` to share one `lcm.LCM` with the node's other channels: messages then dispatch in the order the
+robot sent them (torso state before the motor feedback of the same tick), which lockstep relies on.
+"""
+
+from __future__ import annotations
+
+import time
+
+import lcm
+
+from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
+from spine_module.messages import channels, codec
+
+
+class LcmMotorBus(MotorBus):
+    def __init__(self, url: str = "", lc: lcm.LCM | None = None,
+                 command_channel: str = channels.MOTOR_COMMAND,
+                 feedback_channel: str = channels.MOTOR_FEEDBACK) -> None:
+        try:
+            self.lc = lc if lc is not None else lcm.LCM(url)
+        except (OSError, RuntimeError) as exc:
+            raise MotorBusError(f"cannot open LCM at {url!r}: {exc}") from exc
+        self.command_channel, self.feedback_channel = command_channel, feedback_channel
+        self._newest: MotorFeedback | None = None
+        self._error: codec.MessageError | None = None
+        self._last_feedback_seq = -1
+        self.dropped = 0  # feedback superseded before the node read it
+        self._sub = self.lc.subscribe(feedback_channel, self._on_feedback)
+
+    def _on_feedback(self, channel: str, data: bytes) -> None:
+        try:
+            fb = codec.decode_motor_feedback(data, channel)
+        except codec.MessageError as exc:
+            self._error = exc
+            return
+        if self._newest is not None:
+            self.dropped += 1
+        self._newest = fb
+
+    def send(self, command: MotorCommand) -> None:
+        try:
+            data = codec.encode_motor_command(command, self._last_feedback_seq)
+            self.lc.publish(self.command_channel, data)
+        except OSError as exc:
+            raise MotorBusError(f"LCM publish on {self.command_channel} failed: {exc}") from exc
+
+    def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while self._newest is None and self._error is None:
+            remaining = 1.0 if deadline is None else deadline - time.monotonic()
+            if remaining <= 0:
+                if self.lc.handle_timeout(0) <= 0:
+                    break
+                continue
+            self.lc.handle_timeout(max(1, int(remaining * 1000)))
+        if self._error is not None:
+            err, self._error = self._error, None
+            raise MotorBusError(str(err)) from err
+        fb, self._newest = self._newest, None
+        if fb is not None:
+            self._last_feedback_seq = fb.seq
+        return fb
+
+    def shutdown(self) -> None:
+        if self._sub is not None:
+            self.lc.unsubscribe(self._sub)
+            self._sub = None

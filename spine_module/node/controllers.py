@@ -1,0 +1,29 @@
+"""The controllers the node runs, built once and shared by every mode and every bus backend.
+
+Each controller follows the spine-core API: `set_gains(k=(3,), d=(3,))`, `set_target(x_d, dx_d, ddx_d)`,
+`step(q (4,), dq (4,), ddq1) -> ControlOutput` with `tau (3,)`, `ok`, `error`, `x (3,)`, `dx (3,)`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from spine_module import params
+
+
+@dataclass
+class Controllers:
+    impedance: Any  # eq. (3) with eq. (4) friction compensation
+    impedance_plain: Any  # eq. (3) without friction compensation
+    pd: Any  # eq. (5)
+
+    @classmethod
+    def default(cls, spine: params.SpineParams = params.DEFAULT_SPINE) -> Controllers:
+        from spine_module.control import ImpedanceController, StribeckFriction, TaskPDController
+        from spine_module.model import SpineModel
+
+        model = SpineModel(spine=spine)
+        return cls(impedance=ImpedanceController(model, friction=StribeckFriction.nominal()),
+                   impedance_plain=ImpedanceController(model, friction=None),
+                   pd=TaskPDController(model))

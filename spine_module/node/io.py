@@ -1,0 +1,157 @@
+"""The node's non-motor side: torso state, spine commands and robot heartbeats in; spine state and the
+node's heartbeat out. Every incoming message goes through the validating codec, whatever the transport,
+so an in-process run and an LCM run see identical numbers.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+
+import lcm
+
+from spine_module.messages import (
+    Heartbeat,
+    MessageError,
+    SpineCommand,
+    SpineState,
+    TorsoState,
+    channels,
+    codec,
+)
+
+log = logging.getLogger("spine_module.node")
+
+_INCOMING = {
+    channels.TORSO_STATE: codec.decode_torso,
+    channels.SPINE_COMMAND: codec.decode_command,
+    channels.HEARTBEAT_ROBOT: codec.decode_heartbeat,
+}
+
+
+class Inbox:
+    """Newest valid message per channel since the node last looked, plus the rejects.
+
+    `reset_requested` stays True once any command with `reset` arrived until the node takes it, so a
+    reset is not lost when a later command supersedes it within one tick."""
+
+    def __init__(self) -> None:
+        self.torso: TorsoState | None = None
+        self.command: SpineCommand | None = None
+        self.heartbeat: Heartbeat | None = None
+        self.reset_requested = False
+        self.rejects: deque[MessageError] = deque(maxlen=64)
+        self.received = 0
+
+    def offer_bytes(self, channel: str, data: bytes) -> None:
+        decode = _INCOMING.get(channel)
+        if decode is None:
+            return
+        self.received += 1
+        try:
+            msg = decode(data, channel)
+        except MessageError as exc:
+            self.rejects.append(exc)
+            return
+        if channel == channels.TORSO_STATE:
+            self.torso = msg
+        elif channel == channels.SPINE_COMMAND:
+            self.command = msg
+            self.reset_requested |= msg.reset
+        else:
+            self.heartbeat = msg
+
+    def take(self) -> tuple:
+        """(torso, command, heartbeat, reset requested, rejects) since the last take; None if none."""
+        out = (self.torso, self.command, self.heartbeat, self.reset_requested, list(self.rejects))
+        self.torso = self.command = self.heartbeat = None
+        self.reset_requested = False
+        self.rejects.clear()
+        return out
+
+
+class NodeIO:
+    """Base: an inbox and two outputs. Subclasses move bytes."""
+
+    def __init__(self) -> None:
+        self.inbox = Inbox()
+
+    def poll(self) -> None:
+        """Move everything that has arrived into the inbox without blocking."""
+
+    def publish_state(self, state: SpineState) -> None:
+        raise NotImplementedError
+
+    def publish_heartbeat(self, hb: Heartbeat) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        pass
+
+
+class InProcessNodeIO(NodeIO):
+    """For a robot in the same process: it calls `deliver`; the node's outputs are kept (bounded) and
+    passed to an optional callback. Messages are encoded and decoded like on the wire."""
+
+    def __init__(self, keep: int = 100_000, on_state=None) -> None:
+        super().__init__()
+        self.states: deque[SpineState] = deque(maxlen=keep)
+        self.heartbeats: deque[Heartbeat] = deque(maxlen=keep)
+        self.on_state = on_state
+
+    def deliver(self, channel: str, data: bytes) -> None:
+        self.inbox.offer_bytes(channel, data)
+
+    def send_torso(self, t: TorsoState) -> None:
+        self.deliver(channels.TORSO_STATE, codec.encode_torso(t))
+
+    def send_command(self, c: SpineCommand) -> None:
+        self.deliver(channels.SPINE_COMMAND, codec.encode_command(c))
+
+    def send_heartbeat(self, h: Heartbeat) -> None:
+        self.deliver(channels.HEARTBEAT_ROBOT, codec.encode_heartbeat(h))
+
+    def publish_state(self, state: SpineState) -> None:
+        state = codec.decode_state(codec.encode_state(state))
+        self.states.append(state)
+        if self.on_state is not None:
+            self.on_state(state)
+
+    def publish_heartbeat(self, hb: Heartbeat) -> None:
+        self.heartbeats.append(hb)
+
+
+class LcmNodeIO(NodeIO):
+    """LCM channels SPARC_TORSO_STATE, SPARC_SPINE_COMMAND, SPARC_HEARTBEAT_ROBOT in;
+    SPARC_SPINE_STATE and SPARC_HEARTBEAT_NODE out. Share `lc` with an `LcmMotorBus`."""
+
+    def __init__(self, lc: lcm.LCM) -> None:
+        super().__init__()
+        self.lc = lc
+        self._subs = [lc.subscribe(ch, self.inbox.offer_bytes) for ch in _INCOMING]
+        self.publish_errors = 0
+
+    def poll(self) -> None:
+        deadline = time.monotonic() + 0.0005  # never let a flood starve the loop
+        while self.lc.handle_timeout(0) > 0 and time.monotonic() < deadline:
+            pass
+
+    def _publish(self, channel: str, data: bytes) -> None:
+        try:
+            self.lc.publish(channel, data)
+        except OSError as exc:  # the loop never dies on a full socket buffer
+            self.publish_errors += 1
+            if self.publish_errors in (1, 10, 100, 1000):
+                log.warning("LCM publish on %s failed (%d so far): %s", channel, self.publish_errors, exc)
+
+    def publish_state(self, state: SpineState) -> None:
+        self._publish(channels.SPINE_STATE, codec.encode_state(state))
+
+    def publish_heartbeat(self, hb: Heartbeat) -> None:
+        self._publish(channels.HEARTBEAT_NODE, codec.encode_heartbeat(hb))
+
+    def close(self) -> None:
+        for s in self._subs:
+            self.lc.unsubscribe(s)
+        self._subs = []

@@ -1,0 +1,346 @@
+"""The spine node: bus -> state -> controller -> safety -> bus, once per tick.
+
+One `SpineNode` object runs between any `MotorBus` (in-process simulation, LCM to a simulated robot,
+CyberGear CAN) and any `NodeIO` (LCM or in-process), like Cheetah-Software's one RobotRunner between a
+SimulationBridge and a HardwareBridge. `run_realtime` drives it from a fixed-rate clock, `run_lockstep`
+from the motor feedback ticks.
+
+Time: every deadline is measured on the node's own clock (`now`, s) from when an input *arrived*, never
+from the sender's stamp, so clock offsets between computers do not matter. In real time `now` is the
+monotonic clock since start; in lockstep it is the stamp of the feedback tick being answered.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from spine_module import params, safety
+from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
+from spine_module.messages import Fault, Heartbeat, MessageError, Mode, SpineCommand, SpineState, TorsoState
+from spine_module.messages import channels as ch
+from spine_module.node.clocks import PeriodStats, RealTimeClock
+from spine_module.node.controllers import Controllers
+from spine_module.node.io import NodeIO
+
+log = logging.getLogger("spine_module.node")
+
+_BAD_BY_CHANNEL = {ch.TORSO_STATE: Fault.BAD_TORSO, ch.SPINE_COMMAND: Fault.BAD_COMMAND,
+                   ch.HEARTBEAT_ROBOT: Fault.BAD_COMMAND, ch.MOTOR_FEEDBACK: Fault.BAD_FEEDBACK}
+_NOISY = Fault.TORQUE_CLAMPED | Fault.JOINT_LIMIT
+
+
+@dataclass
+class NodeConfig:
+    rate_hz: float = params.CONTROL_RATE_HZ
+    safety: safety.SafetyConfig = field(default_factory=safety.SafetyConfig)
+    heartbeat_period_s: float = 0.010  # node -> robot heartbeat, on the node's clock
+    state_every: int = 1  # publish spine state every N ticks
+    name: str = "spine-node"
+    jitter_window: int = 1000
+
+
+class _RateLimitedLog:
+    def __init__(self, every_s: float = 1.0) -> None:
+        self.every = every_s
+        self._last: dict[str, float] = {}
+
+    def __call__(self, key: str, now: float, level: int, msg: str, *args: object) -> None:
+        last = self._last.get(key)
+        if last is None or now - last >= self.every or now < last:
+            self._last[key] = now
+            log.log(level, msg, *args)
+
+
+class SpineNode:
+    def __init__(self, controllers: Controllers, bus: MotorBus, io: NodeIO,
+                 config: NodeConfig | None = None) -> None:
+        self.ctrl = controllers
+        self.bus = bus
+        self.io = io
+        self.cfg = config if config is not None else NodeConfig()
+        self.safety = safety.SafetyState()
+        self.rx = safety.Receipts()
+        self.fb: MotorFeedback | None = None
+        self.torso: TorsoState | None = None
+        self.command: SpineCommand | None = None
+        self.bad = Fault.NONE
+        self.rejected = ""
+        self.rejected_count = 0
+        self.seq = 0
+        self.stats = PeriodStats(1.0 / self.cfg.rate_hz, self.cfg.jitter_window)
+        self.state = SpineState()
+        self._hb_seq = 0
+        self._hb_next: float | None = None
+        self._last_faults = Fault.NONE
+        self._pending_bus_fault = Fault.NONE
+        self._ratelog = _RateLimitedLog()
+        self.last_now: float | None = None
+
+    # --- inputs -----------------------------------------------------------------------------------
+    def receive(self, timeout_s: float | None) -> MotorFeedback | None:
+        """Newest feedback from the bus (None if none); bus and decode errors become fault bits."""
+        try:
+            return self.bus.receive(timeout_s)
+        except MotorBusError as exc:
+            self._bus_error(exc, self.last_now if self.last_now is not None else 0.0)
+            return None
+
+    def _bus_error(self, exc: MotorBusError, now: float) -> None:
+        if isinstance(exc.__cause__, MessageError):
+            self.bad |= Fault.BAD_FEEDBACK
+            self.rejected = str(exc.__cause__)
+            self.rejected_count += 1
+            self._ratelog(f"reject:{exc.__cause__.channel}.{exc.__cause__.field}", now, logging.WARNING,
+                          "rejected %s", exc.__cause__)
+        else:
+            self._pending_bus_fault |= Fault.BUS
+            self._ratelog("bus", now, logging.ERROR, "motor bus error: %s", exc)
+
+    def _accept_feedback(self, fb: MotorFeedback, now: float) -> None:
+        ok = all(np.all(np.isfinite(a)) and np.shape(a) == (3,) for a in (fb.q, fb.dq, fb.tau))
+        if not ok:
+            self.bad |= Fault.BAD_FEEDBACK
+            self.rejected = f"{ch.MOTOR_FEEDBACK}: non-finite or mis-shaped q/dq/tau"
+            self.rejected_count += 1
+            self._ratelog("reject:feedback", now, logging.WARNING, "rejected %s", self.rejected)
+            return
+        self.fb = fb
+        self.rx = _rx(self.rx, feedback=now)
+        self.bad &= ~Fault.BAD_FEEDBACK
+
+    # --- one tick -----------------------------------------------------------------------------------
+    def tick(self, now: float, feedback: MotorFeedback | None, wall_s: float | None = None) -> SpineState:
+        """Run one control step at node time `now` with the feedback received for it (None: none new)."""
+        t_start = time.perf_counter()
+        self.stats.mark(time.monotonic() if wall_s is None else wall_s)
+        self.last_now = now
+        cfg, scfg = self.cfg, self.cfg.safety
+        if feedback is not None:
+            self._accept_feedback(feedback, now)
+        self.io.poll()
+        torso, command, heartbeat, reset, rejects = self.io.inbox.take()
+        for rej in rejects:
+            self.bad |= _BAD_BY_CHANNEL.get(rej.channel, Fault.BAD_COMMAND)
+            self.rejected = str(rej)
+            self.rejected_count += 1
+            self._ratelog(f"reject:{rej.channel}.{rej.field}", now, logging.WARNING, "rejected %s", rej)
+        if torso is not None:
+            self.torso = torso
+            self.rx = _rx(self.rx, torso=now)
+            self.bad &= ~Fault.BAD_TORSO
+        if command is not None:
+            self.command = command
+            self.rx = _rx(self.rx, command=now)
+            self.bad &= ~Fault.BAD_COMMAND
+        if heartbeat is not None:
+            self.rx = _rx(self.rx, heartbeat=now)
+
+        requested = self.command.mode if self.command is not None else Mode.DISABLED
+        self.safety, v = safety.supervise(self.safety, now, self.rx, requested, reset, scfg)
+        faults = v.faults | self.bad | self._pending_bus_fault
+        self._pending_bus_fault = Fault.NONE
+
+        q = np.zeros(4)
+        dq = np.zeros(4)
+        if self.torso is not None:
+            q[0], dq[0] = self.torso.q1, self.torso.dq1
+        if self.fb is not None:
+            q[1:], dq[1:] = self.fb.q, self.fb.dq
+            if np.any(self.fb.fault):
+                faults |= Fault.MOTOR
+        tau = np.zeros(3)
+        x = np.full(3, np.nan)
+        dx = np.full(3, np.nan)
+        mode = v.mode
+        if mode in (Mode.IMPEDANCE, Mode.PD):
+            tau, x, dx, ok = self._control(mode, v, q, dq)
+            if not ok:
+                faults |= Fault.CONTROLLER
+        elif mode == Mode.JOINT_TORQUE:
+            tau = np.array(self.command.tau_ff, dtype=float)
+        elif mode == Mode.DAMPING:
+            tau = safety.damping_torque(dq[1:], scfg.damping_mode)
+        if mode in (Mode.DAMPING, *safety.TORQUE_MODES) and not faults & Fault.CONTROLLER:
+            extra, near = safety.joint_limit_damping(q[1:], dq[1:], scfg.lower, scfg.upper, scfg.limit_margin,
+                                                     scfg.joint_limit_damping)
+            if near.any():
+                faults |= Fault.JOINT_LIMIT
+                tau = tau + extra
+        tau, sat = safety.clamp_torque(tau, scfg.torque_limit)
+        if sat.any():
+            faults |= Fault.TORQUE_CLAMPED
+        if not v.enable:
+            tau = np.zeros(3)
+
+        cmd = MotorCommand(tau_ff=tau, enable=v.enable, stamp_s=now, seq=self.seq)
+        try:
+            self.bus.send(cmd)
+        except MotorBusError as exc:
+            self._bus_error(exc, now)
+            faults |= Fault.BUS
+
+        if self._hb_next is None or now >= self._hb_next or now < self._hb_next - 10 * cfg.heartbeat_period_s:
+            self._hb_next = now + cfg.heartbeat_period_s
+            self.io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(self.safety.latched),
+                                                reset_count=self.safety.reset_count, stamp_s=now,
+                                                seq=self._hb_seq))
+            self._hb_seq += 1
+
+        self._log_transitions(faults, mode, now)
+        fb = self.fb
+        s = SpineState(
+            stamp_s=now, seq=self.seq, mode=mode, requested_mode=requested, faults=faults,
+            rejected=self.rejected,
+            q=q, dq=dq, tau_cmd=tau, tau_est=fb.tau.copy() if fb is not None else np.zeros(3), x=x, dx=dx,
+            gain_scale=v.gain_scale,
+            load_cell=np.array(fb.load_cell_n, dtype=float) if fb is not None else np.full(2, np.nan),
+            temperature=np.array(fb.temperature_c, dtype=float) if fb is not None else np.zeros(3),
+            period=self.stats.period, jitter_max=self.stats.jitter_max, compute=time.perf_counter() - t_start,
+            feedback_seq=fb.seq if fb is not None else -1,
+            command_seq=self.command.seq if self.command is not None else -1,
+            torso_seq=self.torso.seq if self.torso is not None else -1)
+        self.state = s
+        if self.seq % cfg.state_every == 0:
+            self.io.publish_state(s)
+        self.seq += 1
+        return s
+
+    def _control(self, mode: Mode, v: safety.Verdict, q: np.ndarray, dq: np.ndarray):
+        c = self.command
+        scfg = self.cfg.safety
+        if mode == Mode.PD:
+            ctrl = self.ctrl.pd
+        else:
+            with_friction = c.friction_compensation or v.default_gains
+            ctrl = self.ctrl.impedance if with_friction else self.ctrl.impedance_plain
+        k, d = (scfg.default_k, scfg.default_d) if v.default_gains else (c.k, c.d)
+        ctrl.set_gains(k=tuple(np.asarray(k) * v.gain_scale), d=tuple(np.asarray(d) * v.gain_scale))
+        if v.default_gains:
+            ctrl.set_target(x_d=tuple(c.x_d), dx_d=(0.0, 0.0, 0.0), ddx_d=(0.0, 0.0, 0.0))
+        else:
+            ctrl.set_target(x_d=tuple(c.x_d), dx_d=tuple(c.dx_d), ddx_d=tuple(c.ddx_d))
+        ddq1 = self.torso.ddq1 if self.torso is not None and self.torso.ddq1_valid else 0.0
+        try:
+            out = ctrl.step(q, dq, ddq1=ddq1)
+        except Exception as exc:  # the loop never dies; the controller promises not to raise anyway
+            self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller raised: %r", exc)
+            return np.zeros(3), np.full(3, np.nan), np.full(3, np.nan), False
+        x, dx = np.array(out.x, dtype=float), np.array(out.dx, dtype=float)
+        if not out.ok:
+            self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller not ok: %s",
+                          out.error)
+            return np.zeros(3), x, dx, False
+        tau = np.array(out.tau, dtype=float)
+        if not v.default_gains:
+            tau = tau + c.tau_ff
+        return tau, x, dx, True
+
+    def _log_transitions(self, faults: Fault, mode: Mode, now: float) -> None:
+        quiet = faults & ~_NOISY
+        changed = quiet ^ (self._last_faults & ~_NOISY)
+        if changed:
+            raised, cleared = changed & quiet, changed & ~quiet
+            if raised:
+                log.warning("t=%.4f s: fault %s raised; running %s", now, raised.name, mode.name)
+            if cleared:
+                log.info("t=%.4f s: fault %s cleared; running %s", now, cleared.name, mode.name)
+        noisy_new = faults & _NOISY & ~self._last_faults
+        if noisy_new:
+            self._ratelog(f"noisy:{int(noisy_new)}", now, logging.INFO, "t=%.4f s: %s", now, noisy_new.name)
+        self._last_faults = faults
+
+    def stop(self) -> None:
+        """Zero torque, motors stopped; safe to call more than once."""
+        try:
+            self.bus.stop()
+        except MotorBusError as exc:
+            log.error("could not stop motors: %s", exc)
+
+
+def _rx(rx: safety.Receipts, **kw: float) -> safety.Receipts:
+    return replace(rx, **kw)
+
+
+# --- loops ------------------------------------------------------------------------------------------
+@dataclass
+class RunResult:
+    ticks: int
+    elapsed_wall_s: float
+    achieved_rate_hz: float
+    jitter_max_s: float
+    overruns: int = 0
+
+
+def run_realtime(node: SpineNode, duration_s: float | None = None,
+                 stop: threading.Event | Callable[[], bool] | None = None) -> RunResult:
+    """Fixed-rate loop at `node.cfg.rate_hz` on the monotonic clock: each tick drains the bus (newest
+    feedback wins), then steps. Stops after `duration_s` or when `stop` is set."""
+    stopped = _stopper(stop)
+    clock = RealTimeClock(node.cfg.rate_hz)
+    t_wall0 = time.monotonic()
+    ticks = 0
+    jitter = 0.0
+    try:
+        while not stopped():
+            now = clock.wait()
+            if duration_s is not None and now > duration_s:
+                break
+            newest = None
+            while True:
+                fb = node.receive(0.0)
+                if fb is None:
+                    break
+                newest = fb
+            node.tick(now, newest, wall_s=clock.t0 + now)
+            jitter = max(jitter, node.stats.jitter_max)
+            ticks += 1
+    finally:
+        node.stop()
+    elapsed = time.monotonic() - t_wall0
+    return RunResult(ticks, elapsed, ticks / elapsed if elapsed > 0 else 0.0, jitter, clock.overruns)
+
+
+def run_lockstep(node: SpineNode, duration_s: float | None = None,
+                 stop: threading.Event | Callable[[], bool] | None = None,
+                 idle_timeout_s: float = 5.0, max_ticks: int | None = None) -> RunResult:
+    """One control step per motor feedback tick; node time = the feedback's stamp. Returns when the
+    robot has been silent for `idle_timeout_s` of wall time, after `duration_s` of node time, after
+    `max_ticks`, or when `stop` is set."""
+    stopped = _stopper(stop)
+    t_wall0 = time.monotonic()
+    ticks = 0
+    first: float | None = None
+    last_heard = time.monotonic()
+    try:
+        while not stopped() and (max_ticks is None or ticks < max_ticks):
+            fb = node.receive(0.05)
+            if fb is None:
+                if time.monotonic() - last_heard > idle_timeout_s:
+                    log.info("lockstep: no motor feedback for %.1f s, stopping", idle_timeout_s)
+                    break
+                continue
+            last_heard = time.monotonic()
+            now = fb.stamp_s
+            first = now if first is None else first
+            if duration_s is not None and now - first > duration_s:
+                break
+            node.tick(now, fb)
+            ticks += 1
+    finally:
+        node.stop()
+    elapsed = time.monotonic() - t_wall0
+    return RunResult(ticks, elapsed, ticks / elapsed if elapsed > 0 else 0.0, node.stats.jitter_max)
+
+
+def _stopper(stop) -> Callable[[], bool]:
+    if stop is None:
+        return lambda: False
+    if isinstance(stop, threading.Event):
+        return stop.is_set
+    return stop

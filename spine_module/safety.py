@@ -1,0 +1,178 @@
+"""The spine node's safety logic: watchdogs, latches and clamps as pure functions of state and time.
+
+Nothing here reads a clock or keeps hidden state: the node passes `now` (its own clock, s), the receipt
+times of its inputs and the previous `SafetyState`, and gets back a new state and a `Verdict` saying
+which mode to run and how. Every behaviour below is documented in README ("Safety") and has a
+fault-injection test in `tests/test_safety_*.py` / `tests/test_node_*.py`.
+
+Behaviours (deadlines from `params.SAFETY`):
+- torso state older than `torso_deadline_s` (or never received): q1 is not trusted, the node runs the
+  damping mode; it recovers by itself when fresh state returns (with a new soft start).
+- motor feedback older than `feedback_deadline_s` (or never received): zero torque.
+- no command for `command_deadline_s`: hold the last target in impedance mode with the default gains.
+- robot heartbeat older than `heartbeat_deadline_s` once seen: latched HEARTBEAT_LOST, zero torque with
+  the motors stopped, until a reset while the heartbeat is fresh. Until the first heartbeat (when
+  required) the node waits with the motors stopped.
+- E-stop command: latched ESTOP, zero torque, motors stopped, until a reset with a non-E-stop command.
+- torques clamp at +-torque limit; inside `JOINT_LIMIT_MARGIN_RAD` of a joint limit, moving towards it,
+  damping is added (reported as JOINT_LIMIT).
+- entering impedance or PD mode ramps K and D from 0 to 1 over `soft_start_s`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from spine_module import params
+from spine_module.messages.types import LATCHING, Fault, Mode
+
+TORQUE_MODES = (Mode.IMPEDANCE, Mode.PD, Mode.JOINT_TORQUE)
+RAMPED_MODES = (Mode.IMPEDANCE, Mode.PD)
+
+
+def _lims(which: dict[str, float]) -> np.ndarray:
+    return np.array([which[j] for j in params.ACTUATED_JOINTS])
+
+
+@dataclass(frozen=True)
+class SafetyConfig:
+    torso_deadline_s: float = params.SAFETY.torso_deadline_s
+    feedback_deadline_s: float = params.SAFETY.feedback_deadline_s
+    command_deadline_s: float = params.SAFETY.command_deadline_s
+    heartbeat_deadline_s: float = params.SAFETY.heartbeat_deadline_s
+    soft_start_s: float = params.SAFETY.soft_start_s
+    joint_limit_damping: float = params.SAFETY.joint_limit_damping_nm_s_rad
+    damping_mode: float = params.SAFETY.damping_mode_nm_s_rad
+    torque_limit: float = params.TORQUE_LIMIT_NM
+    lower: np.ndarray = field(default_factory=lambda: _lims(params.JOINT_LOWER_RAD))
+    upper: np.ndarray = field(default_factory=lambda: _lims(params.JOINT_UPPER_RAD))
+    limit_margin: float = params.JOINT_LIMIT_MARGIN_RAD
+    heartbeat_required: bool = True
+    default_k: np.ndarray = field(default_factory=lambda: params.K_DEFAULT.copy())
+    default_d: np.ndarray = field(default_factory=lambda: params.D_DEFAULT.copy())
+
+
+@dataclass(frozen=True)
+class Receipts:
+    """When each input last arrived (valid), on the node's clock, s; None if never."""
+
+    torso: float | None = None
+    feedback: float | None = None
+    command: float | None = None
+    heartbeat: float | None = None
+
+
+@dataclass(frozen=True)
+class SafetyState:
+    latched: Fault = Fault.NONE
+    heartbeat_seen: bool = False
+    mode: Mode = Mode.DISABLED  # mode that ran last tick
+    ramp_t0: float | None = None  # when the running ramped mode started
+    reset_count: int = 0  # resets accepted so far (sent to the robot side in the heartbeat)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    mode: Mode  # mode to run this tick
+    faults: Fault  # active and latched faults (watchdogs; clamp bits are added by the node)
+    gain_scale: float  # soft-start factor on K and D, 0..1
+    default_gains: bool  # command stale: hold the last target with the default gains
+    enable: bool  # False: motors stopped (zero torque)
+
+
+def age(now: float, t: float | None) -> float:
+    return math.inf if t is None else now - t
+
+
+def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, reset: bool,
+              cfg: SafetyConfig) -> tuple[SafetyState, Verdict]:
+    """One tick of the watchdogs and latches. `reset` is True on the tick a command asking for a reset
+    arrives; `requested` is the mode of the command in force (DISABLED before any)."""
+    latched = state.latched
+    heartbeat_seen = state.heartbeat_seen or rx.heartbeat is not None
+    heartbeat_fresh = age(now, rx.heartbeat) <= cfg.heartbeat_deadline_s
+    reset_count = state.reset_count
+
+    if reset:
+        reset_count += 1
+        if heartbeat_fresh or not cfg.heartbeat_required:
+            latched &= ~Fault.HEARTBEAT_LOST
+        if requested != Mode.ESTOP:
+            latched &= ~Fault.ESTOP
+    if requested == Mode.ESTOP:
+        latched |= Fault.ESTOP
+    if cfg.heartbeat_required and heartbeat_seen and not heartbeat_fresh:
+        latched |= Fault.HEARTBEAT_LOST
+
+    active = Fault.NONE
+    if cfg.heartbeat_required and not heartbeat_seen:
+        active |= Fault.WAITING
+    if rx.feedback is None:
+        active |= Fault.WAITING
+    elif age(now, rx.feedback) > cfg.feedback_deadline_s:
+        active |= Fault.FEEDBACK_STALE
+    if age(now, rx.torso) > cfg.torso_deadline_s:
+        active |= Fault.TORSO_STALE
+    command_stale = rx.command is not None and age(now, rx.command) > cfg.command_deadline_s
+    if command_stale:
+        active |= Fault.COMMAND_STALE
+
+    default_gains = False
+    enable = True
+    if latched & Fault.ESTOP:
+        mode, enable = Mode.ESTOP, False
+    elif latched & LATCHING or active & Fault.WAITING:
+        mode, enable = Mode.DISABLED, False
+    elif active & Fault.FEEDBACK_STALE:
+        mode = Mode.DISABLED  # zero torque, motors left enabled so fresh feedback resumes control at once
+    elif active & Fault.TORSO_STALE:
+        mode = Mode.DAMPING
+    elif command_stale and requested in TORQUE_MODES:
+        mode, default_gains = Mode.IMPEDANCE, True
+    else:
+        mode = Mode.DISABLED if requested == Mode.ESTOP else requested
+        enable = mode != Mode.DISABLED
+
+    ramp_t0 = state.ramp_t0
+    if mode in RAMPED_MODES:
+        if state.mode not in RAMPED_MODES or ramp_t0 is None:
+            ramp_t0 = now
+        scale = 1.0 if cfg.soft_start_s <= 0 else min(1.0, max(0.0, (now - ramp_t0) / cfg.soft_start_s))
+    else:
+        ramp_t0 = None
+        scale = 1.0 if mode in TORQUE_MODES else 0.0
+
+    new = replace(state, latched=latched, heartbeat_seen=heartbeat_seen, mode=mode, ramp_t0=ramp_t0,
+                  reset_count=reset_count)
+    return new, Verdict(mode=mode, faults=latched | active, gain_scale=scale, default_gains=default_gains,
+                        enable=enable)
+
+
+def clamp_torque(tau: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Clamp to +-limit; non-finite entries become 0 and count as saturated. Returns (tau, saturated)."""
+    tau = np.asarray(tau, dtype=float)
+    finite = np.isfinite(tau)
+    out = np.clip(np.where(finite, tau, 0.0), -limit, limit)
+    return out, (~finite) | (np.abs(tau) > limit)
+
+
+def damping_torque(dq: np.ndarray, c: float) -> np.ndarray:
+    """The damping (safe) mode: tau = -c dq."""
+    return -c * np.asarray(dq, dtype=float)
+
+
+def joint_limit_damping(q: np.ndarray, dq: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float,
+                        c: float) -> tuple[np.ndarray, np.ndarray]:
+    """Extra damping for joints inside `margin` of a limit and moving towards it.
+
+    The coefficient grows linearly from 0 at the margin's edge to `c` at the limit (and stays `c`
+    beyond it). Returns (tau to add, active mask)."""
+    q, dq = np.asarray(q, dtype=float), np.asarray(dq, dtype=float)
+    depth_hi = np.clip((q - (upper - margin)) / margin, 0.0, 1.0)
+    depth_lo = np.clip(((lower + margin) - q) / margin, 0.0, 1.0)
+    towards = np.where(dq > 0, depth_hi, depth_lo)
+    active = (depth_hi > 0) | (depth_lo > 0)
+    return -c * towards * dq, active
