@@ -6,8 +6,10 @@ Each controller follows the spine-core API: `set_gains(k=(3,), d=(3,))`, `set_ta
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from spine_module import params
 
@@ -17,6 +19,17 @@ class Controllers:
     impedance: Any  # eq. (3) with eq. (4) friction compensation
     impedance_plain: Any  # eq. (3) without friction compensation
     pd: Any  # eq. (5)
+    _kin: Any = field(default=None, repr=False)
+
+    def task_state(self, q: np.ndarray, dq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Task pose and velocity by forward kinematics, for modes that run no task controller."""
+        model = getattr(self.impedance, "model", None)
+        if model is None:
+            return np.full(3, np.nan), np.full(3, np.nan)
+        if self._kin is None:
+            self._kin = model.create_data()
+        model.update_kinematics(self._kin, q, dq)
+        return self._kin.x.copy(), self._kin.dx.copy()
 
     @classmethod
     def default(cls, spine: params.SpineParams = params.DEFAULT_SPINE) -> Controllers:

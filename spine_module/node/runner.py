@@ -162,10 +162,13 @@ class SpineNode:
             tau, x, dx, ok = self._control(mode, v, q, dq)
             if not ok:
                 faults |= Fault.CONTROLLER
-        elif mode == Mode.JOINT_TORQUE:
-            tau = np.array(self.command.tau_ff, dtype=float)
-        elif mode == Mode.DAMPING:
-            tau = safety.damping_torque(dq[1:], scfg.damping_mode)
+        else:
+            if self.fb is not None and np.all(np.isfinite(q)) and np.all(np.isfinite(dq)):
+                x, dx = self.ctrl.task_state(q, dq)
+            if mode == Mode.JOINT_TORQUE:
+                tau = np.array(self.command.tau_ff, dtype=float)
+            elif mode == Mode.DAMPING:
+                tau = safety.damping_torque(dq[1:], scfg.damping_mode)
         if mode in (Mode.DAMPING, *safety.TORQUE_MODES) and not faults & Fault.CONTROLLER:
             extra, near = safety.joint_limit_damping(q[1:], dq[1:], scfg.lower, scfg.upper, scfg.limit_margin,
                                                      scfg.joint_limit_damping)
@@ -220,13 +223,13 @@ class SpineNode:
             with_friction = c.friction_compensation or v.default_gains
             ctrl = self.ctrl.impedance if with_friction else self.ctrl.impedance_plain
         k, d = (scfg.default_k, scfg.default_d) if v.default_gains else (c.k, c.d)
-        ctrl.set_gains(k=tuple(np.asarray(k) * v.gain_scale), d=tuple(np.asarray(d) * v.gain_scale))
-        if v.default_gains:
-            ctrl.set_target(x_d=tuple(c.x_d), dx_d=(0.0, 0.0, 0.0), ddx_d=(0.0, 0.0, 0.0))
-        else:
-            ctrl.set_target(x_d=tuple(c.x_d), dx_d=tuple(c.dx_d), ddx_d=tuple(c.ddx_d))
         ddq1 = self.torso.ddq1 if self.torso is not None and self.torso.ddq1_valid else 0.0
         try:
+            ctrl.set_gains(k=np.asarray(k) * v.gain_scale, d=np.asarray(d) * v.gain_scale)
+            if v.default_gains:
+                ctrl.set_target(x_d=c.x_d, dx_d=(0.0, 0.0, 0.0), ddx_d=(0.0, 0.0, 0.0))
+            else:
+                ctrl.set_target(x_d=c.x_d, dx_d=c.dx_d, ddx_d=c.ddx_d)
             out = ctrl.step(q, dq, ddq1=ddq1)
         except Exception as exc:  # the loop never dies; the controller promises not to raise anyway
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller raised: %r", exc)
