@@ -11,7 +11,7 @@ import importlib
 import logging
 import sys
 
-COMMANDS: tuple[str, ...] = ("robots", "bench", "demo")
+COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -31,7 +31,7 @@ from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
 from spine_module.buses.base import MotorCommand, MotorFeedback
-from spine_module.buses.inprocess import InProcessLink
+from spine_module.buses.inprocess import InProcessBus, InProcessLink
 from spine_module.messages import (
     Heartbeat,
     MessageError,
@@ -42,6 +42,7 @@ from spine_module.messages import (
     channels,
     codec,
 )
+from spine_module.node import Controllers, NodeConfig, SpineNode
 from spine_module.node.clocks import RealTimeClock
 from spine_module.node.io import InProcessNodeIO
 
@@ -332,6 +333,17 @@ class BenchRobot:
         lg.latched.append(self.latched)
         self.k += 1
 
+    def wait_for_node(self, timeout_s: float = 30.0) -> bool:
+        """Block (wall time) until a node heartbeat arrives, so tick 0 is not published into the void."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            hbs = self.port.node_heartbeats()
+            if hbs:
+                self._node_reset_count = max(h.reset_count for h in hbs)
+                return True
+            time.sleep(0.01)
+        return False
+
     def run_lockstep(self, n_ticks: int | None = None, stop: Callable[[], bool] | None = None) -> None:
         """Publish, wait for the node's answer to this tick, apply, step; `n_ticks` or the script's length."""
         n = n_ticks if n_ticks is not None else round(self.script.duration_s / self.dt)
@@ -362,5 +374,36 @@ class BenchRobot:
         return self.k / elapsed if elapsed > 0 else 0.0
 
 
-def make_world(plant: PlantConfig | None = None, seed: int = 0) -> BenchWorld:
-    return BenchWorld(plant=plant, seed=seed)
+def run_inprocess(script: BenchScript, node_config: NodeConfig | None = None,
+                  plant: PlantConfig | None = None, seed: int = 0, controllers: Controllers | None = None,
+                  n_ticks: int | None = None,
+                  robot_config: RobotConfig | None = None) -> tuple[BenchRobot, list[SpineState]]:
+    """Node and bench robot in one process, in lockstep: the reference for the LCM runs."""
+    link, io = InProcessLink(), InProcessNodeIO()
+    ctrls = controllers if controllers is not None else Controllers.default()
+    node = SpineNode(ctrls, InProcessBus(link), io, node_config)
+    with BenchWorld(plant=plant, seed=seed) as world:
+        robot = BenchRobot(world, InProcessRobotPort(link, io), script, robot_config)
+        n = n_ticks if n_ticks is not None else round(script.duration_s / world.dt_s)
+        for _ in range(n):
+            t = robot.publish_tick()
+            node.tick(t, node.receive(0.0))
+            robot.finish_tick(robot.port.take_command(0.0, want_seq=robot.k))
+        node.stop()
+    return robot, list(io.states)
+
+
+def states_arrays(states: list[SpineState]) -> dict[str, np.ndarray]:
+    """Spine states as arrays (one row per state), for saving and analysis."""
+    keys = ("stamp_s", "seq", "mode", "faults", "q", "dq", "tau_cmd", "tau_est", "x", "dx", "gain_scale",
+            "load_cell", "period", "jitter_max", "compute", "feedback_seq")
+    return {f"node_{k}": np.array([np.asarray(getattr(s, k), dtype=float) for s in states]) for k in keys}
+
+
+def stiffness_from_states(states: list[SpineState] | dict[str, np.ndarray], x_d: float = P.X_EQUILIBRIUM[0],
+                          skip_s: float = 0.0) -> float:
+    """OLS slope of the load-cell force against the node's x (encoders + forward kinematics), N/m."""
+    a = states if isinstance(states, dict) else states_arrays(states)
+    t, x, f = a["node_stamp_s"], a["node_x"][:, 0] - x_d, a["node_load_cell"][:, 0]
+    sel = (t >= skip_s) & np.isfinite(x) & np.isfinite(f)
+    return float(np.polyfit(x[sel], f[sel], 1)[0])

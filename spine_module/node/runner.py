@@ -258,6 +258,15 @@ class SpineNode:
             self._ratelog(f"noisy:{int(noisy_new)}", now, logging.INFO, "t=%.4f s: %s", now, noisy_new.name)
         self._last_faults = faults
 
+    def idle_heartbeat(self) -> None:
+        """Heartbeat while waiting for the first (or a late) feedback tick in lockstep, so the robot side
+        knows the node is up; stamped with the node's last time."""
+        now = self.last_now if self.last_now is not None else 0.0
+        self.io.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=bool(self.safety.latched),
+                                            reset_count=self.safety.reset_count, stamp_s=now,
+                                            seq=self._hb_seq))
+        self._hb_seq += 1
+
     def stop(self) -> None:
         """Zero torque, motors stopped; safe to call more than once."""
         try:
@@ -324,6 +333,7 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
         while not stopped() and (max_ticks is None or ticks < max_ticks):
             fb = node.receive(0.05)
             if fb is None:
+                node.idle_heartbeat()
                 if time.monotonic() - last_heard > idle_timeout_s:
                     log.info("lockstep: no motor feedback for %.1f s, stopping", idle_timeout_s)
                     break

@@ -1,0 +1,208 @@
+"""`sparc-quad spine-node` (the 1 kHz spine node) and `sparc-quad bench-robot` (the stand-in robot).
+
+    sparc-quad bench-robot --lcm-url URL --clock lockstep --experiment static --k 500 --out out/robot
+    sparc-quad spine-node --motors lcm --lcm-url URL --clock lockstep
+
+Both speak the channels documented in README ("Spine node and LCM interface").
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from spine_module import params as P
+from spine_module.buses import registry
+from spine_module.safety import SafetyConfig
+
+log = logging.getLogger("sparc_quad.cli.node")
+
+
+def _experiment_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("bench experiment (the robot side's script)")
+    g.add_argument("--experiment", choices=["hold", "static", "none"], default="hold",
+                   help="hold: impedance at x_d with the default gains; static: push-pull along x "
+                        "(paper Section IV-A); none: send no spine command (default: %(default)s)")
+    g.add_argument("--k", type=float, default=500.0, help="static: commanded k_x, N/m (default: %(default)s)")
+    g.add_argument("--amplitude", type=float, default=0.025,
+                   help="static: displacement the push aims for, m (default: %(default)s)")
+    g.add_argument("--period", type=float, default=8.0,
+                   help="static: push-pull period, s (default: %(default)s)")
+    g.add_argument("--cycles", type=float, default=1.0, help="static: cycles (default: %(default)s)")
+    g.add_argument("--seed", type=int, default=0, help="plant noise seed (default: %(default)s)")
+    g.add_argument("--ideal-plant", action="store_true", help="plant = model: no quantisation, no noise")
+
+
+def _script(args: argparse.Namespace):
+    from sparc_quad.sim.bench_robot import BenchScript, hold_script, static_push_script
+
+    if args.experiment == "static":
+        s = static_push_script(args.k, args.amplitude, args.period, args.cycles)
+    elif args.experiment == "hold":
+        s = hold_script()
+    else:
+        s = BenchScript()
+    if args.duration is not None:
+        s.duration_s = args.duration
+    return s
+
+
+def _plant(args: argparse.Namespace):
+    from sparc_quad.sim.plant import PlantConfig
+
+    return PlantConfig().ideal() if args.ideal_plant else PlantConfig()
+
+
+def _stop_event() -> threading.Event:
+    ev = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: ev.set())
+    return ev
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("spine-node", help="run the spine node: motors via a bus backend, LCM interface",
+                       description="The 1 kHz spine node: reads motor feedback from --motors, torso state "
+                                   "and commands from LCM, runs the controller and the safety logic, sends "
+                                   "torques, publishes SPARC_SPINE_STATE and a heartbeat.")
+    p.add_argument("--motors", default="lcm", choices=sorted(registry.BACKENDS),
+                   help="motor bus backend (default: %(default)s; inprocess runs the bench robot in this "
+                        "process)")
+    p.add_argument("--lcm-url", default="", help="LCM URL (default: $LCM_DEFAULT_URL or LCM's default "
+                                                 "udpm://239.255.76.67:7667?ttl=0)")
+    p.add_argument("--rate", type=float, default=P.CONTROL_RATE_HZ,
+                   help="control rate, Hz (default: %(default)s)")
+    p.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime",
+                   help="realtime: fixed-rate loop; lockstep: one step per motor feedback tick")
+    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds of node time")
+    p.add_argument("--idle-timeout", type=float, default=5.0,
+                   help="lockstep: stop after this much wall time without motor feedback "
+                        "(default: %(default)s)")
+    p.add_argument("--no-heartbeat", action="store_true",
+                   help="do not require the robot side's heartbeat (bench use without a PMU-like peer)")
+    p.add_argument("--soft-start", type=float, default=P.SAFETY.soft_start_s,
+                   help="gain ramp-in time on entering impedance/PD mode, s (default: %(default)s)")
+    p.add_argument("--state-every", type=int, default=1, help="publish spine state every N ticks")
+    p.add_argument("--summary", type=Path, default=None, help="write a JSON summary of the run here")
+    registry.add_backend_arguments(p)
+    _experiment_args(p)
+    p.set_defaults(func=run_node)
+
+    r = sub.add_parser("bench-robot",
+                       help="stand-in robot: the pybullet bench spine on the robot side of LCM",
+                       description="Runs the pybullet bench spine and speaks the robot's side of the spine "
+                                   "interface: publishes motor feedback, torso state, heartbeat and the "
+                                   "script's spine commands; applies motor commands.")
+    r.add_argument("--lcm-url", default="", help="LCM URL (default: LCM's default)")
+    r.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime")
+    r.add_argument("--duration", type=float, default=None,
+                   help="seconds of robot time (default: the script's)")
+    r.add_argument("--wait-node", type=float, default=30.0,
+                   help="lockstep: wait this long (wall s) for the node's first heartbeat "
+                        "(default: %(default)s)")
+    r.add_argument("--out", type=Path, default=None,
+                   help="write bench_robot.npz (robot log and the node's states) and summary.json here")
+    _experiment_args(r)
+    r.set_defaults(func=run_bench_robot)
+
+
+def _node_config(args: argparse.Namespace):
+    from spine_module.node import NodeConfig
+
+    return NodeConfig(rate_hz=args.rate, state_every=args.state_every,
+                      safety=SafetyConfig(soft_start_s=args.soft_start,
+                                          heartbeat_required=not args.no_heartbeat))
+
+
+def run_node(args: argparse.Namespace) -> int:
+    import lcm
+
+    from spine_module.node import Controllers, LcmNodeIO, SpineNode, run_lockstep, run_realtime
+
+    stop = _stop_event()
+    if args.motors == "inprocess":
+        return _run_node_inprocess(args, stop)
+    lc = lcm.LCM(args.lcm_url)
+    try:
+        bus = registry.make_bus(args.motors, args, lc)
+    except ValueError as exc:
+        log.error("%s", exc)
+        return 2
+    io = LcmNodeIO(lc)
+    node = SpineNode(Controllers.default(), bus, io, _node_config(args))
+    bus.start()
+    log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
+    try:
+        if args.clock == "lockstep":
+            res = run_lockstep(node, args.duration, stop, idle_timeout_s=args.idle_timeout)
+        else:
+            res = run_realtime(node, args.duration, stop)
+    finally:
+        bus.shutdown()
+        io.close()
+    summary = {"ticks": res.ticks, "elapsed_wall_s": res.elapsed_wall_s,
+               "achieved_rate_hz": res.achieved_rate_hz,
+               "jitter_max_s": res.jitter_max_s, "overruns": res.overruns, "rejected": node.rejected_count,
+               "last_faults": node.state.faults.name or "NONE"}
+    print(json.dumps(summary))
+    if args.summary is not None:
+        args.summary.parent.mkdir(parents=True, exist_ok=True)
+        args.summary.write_text(json.dumps(summary, indent=2))
+    return 0
+
+
+def _run_node_inprocess(args: argparse.Namespace, stop: threading.Event) -> int:
+    from sparc_quad.sim.bench_robot import run_inprocess, stiffness_from_states
+
+    script = _script(args)
+    robot, states = run_inprocess(script, _node_config(args), plant=_plant(args), seed=args.seed)
+    out = {"ticks": robot.k, "final_x": [float(v) for v in states[-1].x] if states else None}
+    if args.experiment == "static" and states:
+        out["k_hat_n_m"] = stiffness_from_states(states)
+    print(json.dumps(out))
+    return 0
+
+
+def run_bench_robot(args: argparse.Namespace) -> int:
+    from sparc_quad.sim.bench_robot import BenchRobot, LcmRobotPort, states_arrays, stiffness_from_states
+    from sparc_quad.sim.bench_world import BenchWorld
+
+    stop = _stop_event()
+    script = _script(args)
+    port = LcmRobotPort(args.lcm_url)
+    with BenchWorld(plant=_plant(args), seed=args.seed) as world:
+        robot = BenchRobot(world, port, script)
+        if args.clock == "lockstep":
+            if not robot.wait_for_node(args.wait_node):
+                log.error("no heartbeat from a spine node within %.1f s", args.wait_node)
+                return 1
+            robot.run_lockstep(stop=stop.is_set)
+            rate = None
+        else:
+            rate = robot.run_realtime(stop=stop.is_set)
+        # collect the node's last states still in flight
+        import time
+        t_end = time.monotonic() + 0.3
+        while time.monotonic() < t_end:
+            port.lc.handle_timeout(20)
+    states = [s for s in port.states]
+    summary = {"ticks": robot.k, "unanswered": robot.unanswered, "node_states": len(states),
+               "latched": robot.latched, "achieved_rate_hz": rate, "rejected": port.rejected}
+    if args.experiment == "static" and states:
+        summary["k_hat_n_m"] = stiffness_from_states(states)
+    print(json.dumps(summary))
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        arrays = {f"robot_{k}": v for k, v in robot.log.arrays().items()}
+        if states:
+            arrays.update(states_arrays(states))
+        np.savez(args.out / "bench_robot.npz", **arrays)
+        (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
+    port.close()
+    return 0
