@@ -83,8 +83,13 @@ class Verdict:
     enable: bool  # False: motors stopped (zero torque)
 
 
+# Deadlines compare with this slack so that float sums of tick times (0.001 * k) do not trip a deadline
+# one tick early: an input exactly `deadline` old is still fresh.
+EPS_S = 1e-9
+
+
 def age(now: float, t: float | None) -> float:
-    return math.inf if t is None else now - t
+    return math.inf if t is None else now - t - EPS_S
 
 
 def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, reset: bool,

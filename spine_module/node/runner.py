@@ -43,6 +43,7 @@ class NodeConfig:
     state_every: int = 1  # publish spine state every N ticks
     name: str = "spine-node"
     jitter_window: int = 1000
+    bad_hold_s: float = 0.1  # a BAD_* fault bit stays set this long after the last rejected message
 
 
 class _RateLimitedLog:
@@ -69,7 +70,7 @@ class SpineNode:
         self.fb: MotorFeedback | None = None
         self.torso: TorsoState | None = None
         self.command: SpineCommand | None = None
-        self.bad = Fault.NONE
+        self._bad_until: dict[Fault, float] = {}  # BAD_* bit -> node time it is shown until
         self.rejected = ""
         self.rejected_count = 0
         self.seq = 0
@@ -93,7 +94,7 @@ class SpineNode:
 
     def _bus_error(self, exc: MotorBusError, now: float) -> None:
         if isinstance(exc.__cause__, MessageError):
-            self.bad |= Fault.BAD_FEEDBACK
+            self._flag_bad(Fault.BAD_FEEDBACK, now)
             self.rejected = str(exc.__cause__)
             self.rejected_count += 1
             self._ratelog(f"reject:{exc.__cause__.channel}.{exc.__cause__.field}", now, logging.WARNING,
@@ -105,14 +106,16 @@ class SpineNode:
     def _accept_feedback(self, fb: MotorFeedback, now: float) -> None:
         ok = all(np.all(np.isfinite(a)) and np.shape(a) == (3,) for a in (fb.q, fb.dq, fb.tau))
         if not ok:
-            self.bad |= Fault.BAD_FEEDBACK
+            self._flag_bad(Fault.BAD_FEEDBACK, now)
             self.rejected = f"{ch.MOTOR_FEEDBACK}: non-finite or mis-shaped q/dq/tau"
             self.rejected_count += 1
             self._ratelog("reject:feedback", now, logging.WARNING, "rejected %s", self.rejected)
             return
         self.fb = fb
         self.rx = _rx(self.rx, feedback=now)
-        self.bad &= ~Fault.BAD_FEEDBACK
+
+    def _flag_bad(self, bit: Fault, now: float) -> None:
+        self._bad_until[bit] = now + self.cfg.bad_hold_s
 
     # --- one tick -----------------------------------------------------------------------------------
     def tick(self, now: float, feedback: MotorFeedback | None, wall_s: float | None = None) -> SpineState:
@@ -126,24 +129,26 @@ class SpineNode:
         self.io.poll()
         torso, command, heartbeat, reset, rejects = self.io.inbox.take()
         for rej in rejects:
-            self.bad |= _BAD_BY_CHANNEL.get(rej.channel, Fault.BAD_COMMAND)
+            self._flag_bad(_BAD_BY_CHANNEL.get(rej.channel, Fault.BAD_COMMAND), now)
             self.rejected = str(rej)
             self.rejected_count += 1
             self._ratelog(f"reject:{rej.channel}.{rej.field}", now, logging.WARNING, "rejected %s", rej)
         if torso is not None:
             self.torso = torso
             self.rx = _rx(self.rx, torso=now)
-            self.bad &= ~Fault.BAD_TORSO
         if command is not None:
             self.command = command
             self.rx = _rx(self.rx, command=now)
-            self.bad &= ~Fault.BAD_COMMAND
         if heartbeat is not None:
             self.rx = _rx(self.rx, heartbeat=now)
 
         requested = self.command.mode if self.command is not None else Mode.DISABLED
         self.safety, v = safety.supervise(self.safety, now, self.rx, requested, reset, scfg)
-        faults = v.faults | self.bad | self._pending_bus_fault
+        bad = Fault.NONE
+        for bit, until in self._bad_until.items():
+            if now <= until:
+                bad |= bit
+        faults = v.faults | bad | self._pending_bus_fault
         self._pending_bus_fault = Fault.NONE
 
         q = np.zeros(4)
