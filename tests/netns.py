@@ -1,0 +1,46 @@
+"""Run a shell script inside a private network namespace with multicast on loopback, for LCM over UDP
+multicast between processes without touching the host network."""
+
+from __future__ import annotations
+
+import functools
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+SETUP = "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo\n"
+
+
+@functools.cache
+def unshare_prefix() -> tuple[str, ...] | None:
+    """`unshare -rn` (user namespace) or, as root, `unshare -n`; None when neither works here."""
+    if shutil.which("unshare") is None or shutil.which("ip") is None:
+        return None
+    for prefix in (("unshare", "-rn"), ("unshare", "-n")):
+        try:
+            r = subprocess.run([*prefix, "sh", "-c", SETUP], capture_output=True, timeout=20)
+        except (OSError, subprocess.TimeoutExpired):
+            continue
+        if r.returncode == 0:
+            return prefix
+    return None
+
+
+def lcm_tool(name: str) -> str:
+    """An LCM tool shipped with the lcm wheel. The wheel's console script is a Python wrapper that runs
+    the real binary as a child (a signal to the wrapper does not reach it), so prefer the binary."""
+    import lcm
+
+    binary = Path(lcm.__file__).resolve().parent.parent / "bin" / name
+    if binary.exists():
+        return str(binary)
+    here = Path(sys.executable).parent / name
+    return str(here) if here.exists() else (shutil.which(name) or name)
+
+
+def run_in_netns(script: str, cwd: Path, timeout_s: float = 180.0) -> subprocess.CompletedProcess:
+    prefix = unshare_prefix()
+    assert prefix is not None
+    return subprocess.run([*prefix, "sh", "-c", "set -e\n" + SETUP + script], cwd=cwd, capture_output=True,
+                          text=True, timeout=timeout_s)
