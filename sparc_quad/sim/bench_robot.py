@@ -225,7 +225,8 @@ class RobotConfig:
 @dataclass
 class BenchLog:
     """Per tick: time s, true q1..q4 rad, true task pose, applied F_x N, load-cell reading N, applied
-    torque N*m, whether the robot had a command for the tick, robot-side latched fault."""
+    torque N*m, whether the robot had a command for the tick, robot-side latched fault; in lockstep the
+    wall round trip from publishing the tick to receiving its answer, s (NaN otherwise)."""
 
     t: list[float] = field(default_factory=list)
     q: list[np.ndarray] = field(default_factory=list)
@@ -235,6 +236,7 @@ class BenchLog:
     tau: list[np.ndarray] = field(default_factory=list)
     answered: list[bool] = field(default_factory=list)
     latched: list[bool] = field(default_factory=list)
+    rtt_s: list[float] = field(default_factory=list)
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {k: np.array(v) for k, v in self.__dict__.items()}
@@ -257,6 +259,7 @@ class BenchRobot:
         self._node_reset_count = 0
         self._latched_at_reset_count = 0
         self.unanswered = 0
+        self.t_feedback_wall = 0.0
 
     @property
     def dt(self) -> float:
@@ -290,6 +293,7 @@ class BenchRobot:
         f_cell = self.world.load_cell(fx)
         fb.load_cell_n = np.array([f_cell, np.nan])
         fb.stamp_s, fb.seq = t, self.k
+        self.t_feedback_wall = time.perf_counter()
         self.port.publish_feedback(fb)
         self._pending = (t, st.q.copy(), self._kin.x.copy(), fx, f_cell)
         self._watch_node(clock)
@@ -310,7 +314,7 @@ class BenchRobot:
             log.warning("t=%.4f s: node heartbeat lost (%.1f ms): fault latched, zero torque", clock,
                         1e3 * (clock - self._node_hb_t))
 
-    def finish_tick(self, cmd: MotorCommand | None) -> None:
+    def finish_tick(self, cmd: MotorCommand | None, rtt_s: float = math.nan) -> None:
         """Apply `cmd` (None: keep the last one, as a motor does) and step the world by one tick."""
         t, q, x, fx, f_cell = self._pending
         if cmd is not None:
@@ -331,6 +335,7 @@ class BenchRobot:
         lg.tau.append(self.world.last_applied.copy())
         lg.answered.append(cmd is not None)
         lg.latched.append(self.latched)
+        lg.rtt_s.append(rtt_s)
         self.k += 1
 
     def wait_for_node(self, timeout_s: float = 30.0) -> bool:
@@ -352,12 +357,13 @@ class BenchRobot:
                 break
             self.publish_tick()
             cmd = self.port.take_command(self.cfg.lockstep_timeout_s, want_seq=self.k)
+            rtt = time.perf_counter() - self.t_feedback_wall  # feedback out -> its answer in
             if cmd is None:
                 self.unanswered += 1
                 if self.unanswered in (1, 10, 100):
                     log.warning("tick %d: no answer from the node within %.1f s", self.k,
                                 self.cfg.lockstep_timeout_s)
-            self.finish_tick(cmd)
+            self.finish_tick(cmd, rtt)
 
     def run_realtime(self, n_ticks: int | None = None, stop: Callable[[], bool] | None = None) -> float:
         """Step on a 1 kHz wall clock, applying the newest command; returns the achieved rate (Hz)."""
