@@ -1,0 +1,192 @@
+"""The spine node's round trip over LCM, against a bare LCM ping-pong of the same message sizes, in the
+same run; and the rates achieved in real-time mode.
+
+Everything runs as separate processes talking UDP multicast inside a private network namespace (made
+with `unshare`, as the tests do):
+
+1. lockstep: `bench-robot --clock lockstep` + `spine-node --clock lockstep`. Round trip = wall time from
+   the robot publishing a tick's motor feedback to receiving the node's motor command for it (the torso
+   state of the tick went out just before). Per tick the node decodes torso + feedback, runs safety and
+   the impedance controller, publishes motor command + spine state (+ a heartbeat every 10 ms).
+2. bare: a pinger publishes messages of the torso-state and motor-feedback sizes; a ponger answers the
+   second with messages of the motor-command and spine-state sizes; round trip = the same interval.
+   Ratio = node median / bare median: what the node costs on top of LCM itself.
+3. real time: `bench-robot --clock realtime` + `spine-node --clock realtime --rate 1000` holding the
+   spine for a few seconds: achieved rates, the node's worst period jitter, ticks the robot stepped
+   without a fresh command.
+
+    python bench/lcm_loop.py --json out/bench/lcm_loop.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import shlex
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SETUP = "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo\n"
+PING, PONG = "BENCH_PING", "BENCH_PONG"
+
+
+def _sizes() -> dict[str, int]:
+    import numpy as np
+
+    from spine_module.buses.base import MotorCommand, MotorFeedback
+    from spine_module.messages import SpineState, TorsoState, codec
+
+    fb = MotorFeedback(q=np.zeros(3), dq=np.zeros(3), tau=np.zeros(3))
+    return {"torso": len(codec.encode_torso(TorsoState())), "feedback": len(codec.encode_motor_feedback(fb)),
+            "command": len(codec.encode_motor_command(MotorCommand.zero())),
+            "state": len(codec.encode_state(SpineState()))}
+
+
+def pong(n: int) -> int:
+    import lcm
+
+    sizes = _sizes()
+    lc = lcm.LCM()
+    cmd, state = bytes(sizes["command"]), bytes(sizes["state"])
+    count = [0]
+
+    def on_ping(channel: str, data: bytes) -> None:
+        if len(data) == sizes["feedback"]:  # the second of the pair, as the node answers the feedback
+            lc.publish(PONG, cmd)
+            lc.publish(PONG + "_STATE", state)
+            count[0] += 1
+
+    lc.subscribe(PING, on_ping)
+    deadline = time.monotonic() + 120
+    while count[0] < n and time.monotonic() < deadline:
+        lc.handle_timeout(100)
+    return 0
+
+
+def ping(n: int, out: Path) -> int:
+    import lcm
+
+    sizes = _sizes()
+    lc = lcm.LCM()
+    got = [False]
+    lc.subscribe(PONG, lambda c, d: got.__setitem__(0, True))
+    torso, fb = bytes(sizes["torso"]), bytes(sizes["feedback"])
+    time.sleep(0.5)  # let the ponger subscribe
+    rtts = []
+    for _ in range(n + 100):
+        got[0] = False
+        lc.publish(PING, torso)
+        t0 = time.perf_counter()
+        lc.publish(PING, fb)
+        while not got[0]:
+            if lc.handle_timeout(200) <= 0:  # a lost datagram: counted as a 200 ms round trip
+                break
+        rtts.append(time.perf_counter() - t0)
+    out.write_text(json.dumps({"rtt_s": rtts[100:], "sizes": sizes}))
+    return 0
+
+
+def _unshare() -> list[str]:
+    for prefix in (["unshare", "-rn"], ["unshare", "-n"]):
+        if subprocess.run([*prefix, "sh", "-c", SETUP], capture_output=True).returncode == 0:
+            return prefix
+    raise SystemExit("cannot create a network namespace (unshare) here")
+
+
+def _stats_us(xs: list[float]) -> dict[str, float]:
+    xs = sorted(xs)
+    return {"median_us": 1e6 * statistics.median(xs), "p90_us": 1e6 * xs[int(0.9 * (len(xs) - 1))],
+            "p99_us": 1e6 * xs[int(0.99 * (len(xs) - 1))], "n": len(xs)}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--json", type=Path, help="write the results here")
+    ap.add_argument("--ticks", type=int, default=3000, help="lockstep ticks and ping-pongs (default: 3000)")
+    ap.add_argument("--realtime-s", type=float, default=3.0, help="real-time run length, s (default: 3)")
+    ap.add_argument("--role", choices=["ping", "pong"], help=argparse.SUPPRESS)
+    ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.role == "pong":
+        return pong(args.ticks + 100)  # the pinger warms up with 100 extra rounds
+    if args.role == "ping":
+        return ping(args.ticks, args.out)
+
+    import tempfile
+
+    import numpy as np
+
+    py, me = shlex.quote(sys.executable), shlex.quote(str(Path(__file__).resolve()))
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        dur = args.ticks / 1000.0
+        script = f"""set -e
+{SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}
+N="{py} -m sparc_quad spine-node"
+R="{py} -m sparc_quad bench-robot"
+# 1. node in lockstep
+$N --clock lockstep --idle-timeout 2 --summary {d}/ls_node.json > /dev/null 2> {d}/ls_node.err &
+NODE=$!
+$R --clock lockstep --experiment hold --duration {dur} --out {d}/ls > /dev/null 2> {d}/ls_robot.err
+wait $NODE
+# 2. bare ping-pong
+{py} {me} --role pong --ticks {args.ticks} &
+PONG=$!
+{py} {me} --role ping --ticks {args.ticks} --out {d}/bare.json
+wait $PONG
+# 3. real time: the node runs until the robot is done, then gets SIGTERM
+$N --clock realtime --rate 1000 --summary {d}/rt_node.json > /dev/null 2> {d}/rt_node.err &
+NODE=$!
+$R --clock realtime --experiment hold --duration {args.realtime_s} --out {d}/rt >/dev/null 2>{d}/rt_robot.err
+kill -TERM $NODE
+wait $NODE
+"""
+        r = subprocess.run([*_unshare(), "sh", "-c", script], cwd=ROOT, capture_output=True, text=True,
+                           timeout=600)
+        if r.returncode != 0:
+            errs = "\n".join(f"--- {p.name}\n{p.read_text()[-2000:]}" for p in d.glob("*.err"))
+            raise SystemExit(f"benchmark failed (rc {r.returncode}):\n{r.stderr}\n{errs}")
+        ls = np.load(d / "ls" / "bench_robot.npz")
+        node_rtt = [float(x) for x in ls["robot_rtt_s"][100:]]
+        bare = json.loads((d / "bare.json").read_text())
+        rt_node = json.loads((d / "rt_node.json").read_text())
+        rt_robot = json.loads((d / "rt" / "summary.json").read_text())
+        rt = np.load(d / "rt" / "bench_robot.npz")
+        ls_node = json.loads((d / "ls_node.json").read_text())
+
+    node_s, bare_s = _stats_us(node_rtt), _stats_us(bare["rtt_s"])
+    answered = rt["robot_answered"].astype(bool)
+    period = rt["node_period"][rt["node_faults"] == 0]  # node ticks while the robot was up and all was well
+    period = period[period > 0]
+    result = {
+        "message_bytes": bare["sizes"],
+        "lockstep_node_rtt": node_s,
+        "bare_lcm_rtt": bare_s,
+        "rtt_ratio_node_over_bare_median": node_s["median_us"] / bare_s["median_us"],
+        "lockstep_ticks_per_s": ls_node["ticks"] / ls_node["elapsed_wall_s"],
+        "realtime_node_rate_hz_while_robot_up": float(1.0 / np.mean(period)) if period.size else None,
+        "realtime_node_period_p99_s": float(np.quantile(period, 0.99)) if period.size else None,
+        "realtime_node_rate_hz_whole_run": rt_node["achieved_rate_hz"],
+        "realtime_node_jitter_max_s": rt_node["jitter_max_s"],
+        "realtime_node_overruns": rt_node["overruns"],
+        "realtime_robot_rate_hz": rt_robot["achieved_rate_hz"],
+        "realtime_robot_ticks_without_fresh_command": int((~answered).sum()),
+        "realtime_robot_ticks": int(answered.size),
+        "python": platform.python_version(), "machine": platform.machine(),
+        "note": "shared 2-core machine; lockstep_ticks_per_s includes start-up and the 2 s idle timeout",
+    }
+    for k, v in result.items():
+        print(f"{k:44s} {v}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(result, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
