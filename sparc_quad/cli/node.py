@@ -9,10 +9,12 @@ Both speak the channels documented in README ("Spine node and LCM interface").
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import signal
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -59,11 +61,16 @@ def _plant(args: argparse.Namespace):
     return PlantConfig().ideal() if args.ideal_plant else PlantConfig()
 
 
-def _stop_event() -> threading.Event:
+@contextlib.contextmanager
+def _stop_on_signals():
+    """An Event set by SIGINT/SIGTERM for the duration of the block (previous handlers restored)."""
     ev = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: ev.set())
-    return ev
+    old = {sig: signal.signal(sig, lambda *_: ev.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield ev
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -125,9 +132,8 @@ def run_node(args: argparse.Namespace) -> int:
 
     from spine_module.node import Controllers, LcmNodeIO, SpineNode, run_lockstep, run_realtime
 
-    stop = _stop_event()
     if args.motors == "inprocess":
-        return _run_node_inprocess(args, stop)
+        return _run_node_inprocess(args)
     lc = lcm.LCM(args.lcm_url)
     try:
         bus = registry.make_bus(args.motors, args, lc)
@@ -139,10 +145,11 @@ def run_node(args: argparse.Namespace) -> int:
     bus.start()
     log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
     try:
-        if args.clock == "lockstep":
-            res = run_lockstep(node, args.duration, stop, idle_timeout_s=args.idle_timeout)
-        else:
-            res = run_realtime(node, args.duration, stop)
+        with _stop_on_signals() as stop:
+            if args.clock == "lockstep":
+                res = run_lockstep(node, args.duration, stop, idle_timeout_s=args.idle_timeout)
+            else:
+                res = run_realtime(node, args.duration, stop)
     finally:
         bus.shutdown()
         io.close()
@@ -157,7 +164,7 @@ def run_node(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_node_inprocess(args: argparse.Namespace, stop: threading.Event) -> int:
+def _run_node_inprocess(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bench_robot import run_inprocess, stiffness_from_states
 
     script = _script(args)
@@ -173,10 +180,9 @@ def run_bench_robot(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bench_robot import BenchRobot, LcmRobotPort, states_arrays, stiffness_from_states
     from sparc_quad.sim.bench_world import BenchWorld
 
-    stop = _stop_event()
     script = _script(args)
     port = LcmRobotPort(args.lcm_url)
-    with BenchWorld(plant=_plant(args), seed=args.seed) as world:
+    with BenchWorld(plant=_plant(args), seed=args.seed) as world, _stop_on_signals() as stop:
         robot = BenchRobot(world, port, script)
         if args.clock == "lockstep":
             if not robot.wait_for_node(args.wait_node):
@@ -187,7 +193,6 @@ def run_bench_robot(args: argparse.Namespace) -> int:
         else:
             rate = robot.run_realtime(stop=stop.is_set)
         # collect the node's last states still in flight
-        import time
         t_end = time.monotonic() + 0.3
         while time.monotonic() < t_end:
             port.lc.handle_timeout(20)

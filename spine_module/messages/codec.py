@@ -266,7 +266,10 @@ def decode(channel: str, data: bytes):
 
 # --- encode -----------------------------------------------------------------------------------------
 def _l(a, n: int = 3) -> list[float]:
-    return [float(v) for v in np.asarray(a, dtype=float).reshape(n)]
+    out = np.asarray(a, dtype=float).tolist()
+    if len(out) != n:
+        raise ValueError(f"expected {n} values, got {len(out)}")
+    return out
 
 
 def encode_torso(t: TorsoState) -> bytes:

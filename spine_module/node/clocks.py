@@ -15,11 +15,13 @@ from collections import deque
 
 
 class PeriodStats:
-    """Measured periods: last, and the max |period - nominal| over a window of ticks (jitter)."""
+    """Measured periods: last, and the max |period - nominal| over a window of ticks (jitter), kept in
+    O(1) per tick with a monotonic deque."""
 
     def __init__(self, nominal_s: float, window: int = 1000) -> None:
         self.nominal = nominal_s
-        self._dev: deque[float] = deque(maxlen=window)
+        self.window = window
+        self._maxq: deque[tuple[int, float]] = deque()  # (tick, deviation), deviations decreasing
         self.last_wall: float | None = None
         self.period = 0.0
         self.ticks = 0
@@ -27,13 +29,19 @@ class PeriodStats:
     def mark(self, wall_s: float) -> None:
         if self.last_wall is not None:
             self.period = wall_s - self.last_wall
-            self._dev.append(abs(self.period - self.nominal))
+            dev = abs(self.period - self.nominal)
+            q = self._maxq
+            while q and q[-1][1] <= dev:
+                q.pop()
+            q.append((self.ticks, dev))
+            while q[0][0] <= self.ticks - self.window:
+                q.popleft()
         self.last_wall = wall_s
         self.ticks += 1
 
     @property
     def jitter_max(self) -> float:
-        return max(self._dev) if self._dev else 0.0
+        return self._maxq[0][1] if self._maxq else 0.0
 
 
 class RealTimeClock:
