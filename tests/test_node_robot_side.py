@@ -18,6 +18,7 @@ from spine_module.params import SAFETY
 
 
 def test_robot_latches_on_lost_node_heartbeat_until_reset():
+    """Also: the robot's motor-command timeout zeroes torque 20 ms after the node goes silent."""
     link, io = InProcessLink(), InProcessNodeIO()
     node = SpineNode(Controllers.default(), InProcessBus(link), io)
     with BenchWorld() as world:
@@ -37,6 +38,11 @@ def test_robot_latches_on_lost_node_heartbeat_until_reset():
             tick(False)
         lat = np.array(robot.log.latched)
         t = np.array(robot.log.t)
+        taus = np.array(robot.log.tau)
+        dead = t > t_dead
+        first_zero = t[dead][np.argmax(~taus[dead].any(axis=1))]
+        # the motors' command timeout acts first: zero torque 20 ms after the last command
+        assert first_zero - t_dead == pytest.approx(robot.cfg.command_timeout_s + robot.dt, abs=1.5e-3)
         first = t[np.argmax(lat)]
         assert lat.any() and first - t_dead <= SAFETY.heartbeat_deadline_s + 0.010 + robot.dt + 1e-9
         assert not np.array(robot.log.tau)[np.argmax(lat):].any()  # zero torque once latched

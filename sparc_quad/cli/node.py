@@ -156,7 +156,7 @@ def run_node(args: argparse.Namespace) -> int:
     summary = {"ticks": res.ticks, "elapsed_wall_s": res.elapsed_wall_s,
                "achieved_rate_hz": res.achieved_rate_hz,
                "jitter_max_s": res.jitter_max_s, "overruns": res.overruns, "rejected": node.rejected_count,
-               "last_faults": node.state.faults.name or "NONE"}
+               "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected}
     print(json.dumps(summary))
     if args.summary is not None:
         args.summary.parent.mkdir(parents=True, exist_ok=True)

@@ -9,8 +9,10 @@ the newest motor command and steps the world with the script's push force.
   deterministic whatever the machine's speed (time = ticks x 1 ms);
 - real time: it steps on its own 1 kHz clock and applies whatever command is newest.
 
-Like SPARC's PMU it watches the node's heartbeat: when it is older than `heartbeat_deadline_s` the robot
-latches a fault and applies zero torque until the node's heartbeat shows a higher `reset_count`.
+With no fresh motor command for `command_timeout_s` (20 ms) the motors apply zero torque (a CyberGear's
+CAN timeout, which the real robot should enable). Like SPARC's PMU it watches the node's heartbeat: when
+it is older than `heartbeat_deadline_s` the robot latches a fault and applies zero torque until the
+node's heartbeat shows a higher `reset_count`.
 
 The same `BenchRobot` drives an in-process link (`InProcessRobotPort`) or LCM (`LcmRobotPort`), so an
 in-process run and a run over LCM differ only in transport.
@@ -219,6 +221,9 @@ class RobotConfig:
     heartbeat_deadline_s: float = P.SAFETY.heartbeat_deadline_s
     command_period_s: float = 0.010  # spine command from the script, sim time
     lockstep_timeout_s: float = 2.0  # wall time to wait for the node's answer before giving up on a tick
+    # Motor-side command timeout (the CyberGear's CAN timeout, off by default on the real motor): with no
+    # fresh command for this long the motors apply zero torque instead of holding a stale one. Robot clock.
+    command_timeout_s: float = 0.020
     name: str = "bench-robot"
 
 
@@ -260,6 +265,8 @@ class BenchRobot:
         self._latched_at_reset_count = 0
         self.unanswered = 0
         self.t_feedback_wall = 0.0
+        self._clock = 0.0
+        self._cmd_clock: float | None = None
 
     @property
     def dt(self) -> float:
@@ -296,6 +303,7 @@ class BenchRobot:
         self.t_feedback_wall = time.perf_counter()
         self.port.publish_feedback(fb)
         self._pending = (t, st.q.copy(), self._kin.x.copy(), fx, f_cell)
+        self._clock = clock
         self._watch_node(clock)
         return t
 
@@ -319,9 +327,11 @@ class BenchRobot:
         t, q, x, fx, f_cell = self._pending
         if cmd is not None:
             self.last_cmd = cmd
+            self._cmd_clock = self._clock
         tau = np.zeros(3)
         c = self.last_cmd
-        if c is not None and c.enable and not self.latched:
+        timed_out = self._cmd_clock is None or self._clock - self._cmd_clock > self.cfg.command_timeout_s
+        if c is not None and c.enable and not self.latched and not timed_out:
             fb_q, fb_dq = q[1:], self.world.state().dq[1:]
             tau = c.tau_ff + c.kp * (c.q_des - fb_q) + c.kd * (c.dq_des - fb_dq)
         f_ext = np.array([fx, 0.0, 0.0]) if fx != 0.0 else None
