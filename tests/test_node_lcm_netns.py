@@ -25,7 +25,7 @@ from sparc_quad.sim.bench_robot import run_inprocess, static_push_script, stiffn
 from spine_module.messages import FingerprintError, MessageError, channels, codec, decode
 from spine_module.node import NodeConfig
 from spine_module.safety import SafetyConfig
-from tests.netns import lcm_tool, run_in_netns, unshare_prefix
+from tests.node_netns import lcm_tool, run_in_netns, unshare_prefix
 
 ROOT = Path(__file__).resolve().parents[1]
 K, PERIOD = 500.0, 2.0

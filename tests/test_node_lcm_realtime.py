@@ -16,7 +16,7 @@ from sparc_quad.sim.bench_robot import run_inprocess, static_push_script, stiffn
 from spine_module.messages import Fault, Mode
 from spine_module.node import NodeConfig
 from spine_module.safety import SafetyConfig
-from tests.netns import run_in_netns, unshare_prefix
+from tests.node_netns import run_in_netns, unshare_prefix
 
 ROOT = Path(__file__).resolve().parents[1]
 K, PERIOD = 500.0, 2.0
