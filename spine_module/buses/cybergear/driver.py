@@ -1,0 +1,435 @@
+"""`CanMotorBus`: the spine's motors as CyberGear actuators on one python-can bus.
+
+One `can.Bus` carries every motor; a `can.Notifier` thread decodes the motors' frames into per-joint
+state; `send` encodes one frame per motor and hands it to the bus with a zero timeout, so it never waits
+in the control loop (a full transmit queue is a send error, which the node turns into its safe state).
+
+Torque control, chosen in the configuration:
+- "operation": type-1 frames carry tau_ff, q_des, dq_des, kp, kd (kp = kd = 0 for pure torque control);
+  the motor's own loop closes the PD part. Each frame is answered by a type-2 feedback frame.
+- "current": run_mode 3; each cycle writes iq_ref = tau / kt (type 18), the PD part is closed here from the
+  newest feedback. Each write is answered by a type-2 feedback frame.
+
+Safety: the motor has no watchdog of its own (CAN_TIMEOUT defaults to 0), so `stop()` sends type-4 frames
+and is called on exit, on exceptions (`with` block), and on SIGINT/SIGTERM (`install_stop_handlers`).
+Transport faults, motors silent past `silent_timeout_s`, malformed frames from a configured motor, fault
+frames (type 21) and fault bits in feedback all raise `MotorBusError`, the node's cue for its safe state.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import logging
+import signal
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import can
+import numpy as np
+
+from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
+from spine_module.buses.cybergear import protocol as P
+from spine_module.buses.cybergear.busload import bus_load
+from spine_module.buses.cybergear.config import CyberGearConfig, load_config
+
+log = logging.getLogger(__name__)
+
+FAULT_FRAME_FLAG = 1 << 8  # set in MotorFeedback.fault when a type-21 frame arrived from that motor
+CAN_ERR_BUSOFF = 0x40  # SocketCAN error-frame class bit for bus-off
+
+
+@dataclass
+class _JointState:
+    q: float = 0.0
+    dq: float = 0.0
+    tau: float = 0.0
+    temperature_c: float = 0.0
+    mode: int = 0
+    fault_bits: int = 0
+    fault_value: int = 0
+    warning_value: int = 0
+    stamp_s: float = 0.0
+    frames: int = 0
+    fresh: bool = False
+    uid: bytes | None = None
+    unanswered_since: float | None = None  # monotonic time of the oldest command without a reply
+    run_seen: bool = False  # reported RUN since the last enable
+
+
+def open_bus(interface: str, channel: str, bitrate: int | None = None, **kwargs) -> can.BusABC:
+    """A python-can bus with the usual three options; `bitrate` is ignored by virtual interfaces."""
+    kw = dict(kwargs)
+    if bitrate is not None and interface not in ("virtual", "udp_multicast"):
+        kw["bitrate"] = bitrate
+    return can.Bus(interface=interface, channel=channel, **kw)
+
+
+class CanMotorBus(MotorBus):
+    """MotorBus backend for Xiaomi CyberGear motors on one CAN bus (see module docstring)."""
+
+    def __init__(self, config: CyberGearConfig | str | Path | None = None, bus: can.BusABC | None = None, *,
+                 interface: str | None = None, channel: str | None = None, bitrate: int | None = None,
+                 log_path: str | Path | None = None, fault_raises: bool = True,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        if config is None or isinstance(config, (str, Path)):
+            config = load_config(config)
+        self.config = config
+        self.joint_names = tuple(j.name for j in config.joints)
+        self._ids = {j.can_id: i for i, j in enumerate(config.joints)}
+        self._ranges = config.ranges
+        self._clock = clock
+        self.fault_raises = fault_raises
+        self._own_bus = bus is None
+        if bus is None:
+            if interface is None or channel is None:
+                raise ValueError("give a python-can bus, or interface and channel")
+            bus = open_bus(interface, channel, bitrate or config.bitrate)
+        self.bus = bus
+        self._lock = threading.Lock()
+        self._cond = threading.Condition(self._lock)
+        self._state = [_JointState() for _ in config.joints]
+        self._errors: list[str] = []  # pending transport / protocol faults, raised on the next call
+        self._enabled = False
+        self._started = False
+        self._closed = False
+        self._seq = 0
+        self.tx_frames = 0
+        self.rx_frames = 0
+        self.stop_frames_sent = 0
+        self.send_errors = 0
+        self.ignored: Counter[str] = Counter()  # frames not for us: reason -> count
+        self.last_error: str | None = None
+        self._logger: can.Listener | None = can.Logger(str(log_path)) if log_path else None
+        listener = _Listener(self)
+        listeners: list[can.Listener] = [listener] + ([self._logger] if self._logger else [])
+        self._notifier = can.Notifier(self.bus, listeners, timeout=0.05)
+        self.load = bus_load(len(config.joints), config.rate_hz, config.bitrate)
+
+    # --- receive path (notifier thread) ----------------------------------------------------------------
+    def _on_message(self, msg: can.Message) -> None:
+        now = self._clock()
+        if msg.is_error_frame:
+            with self._cond:
+                if msg.arbitration_id & CAN_ERR_BUSOFF:
+                    self._fault("bus-off reported by the CAN controller")
+                else:
+                    self.ignored["error frame"] += 1
+            return
+        comm, data2, target = P.split_id(msg.arbitration_id)
+        try:
+            frame = P.decode_from_motor(msg, self.config.host_id, set(self._ids), self._ranges)
+        except P.FrameError as e:
+            with self._cond:
+                claims_ours = (msg.is_extended_id and comm in (P.CommType.FEEDBACK, P.CommType.FAULT)
+                               and (data2 & 0xFF) in self._ids and target == self.config.host_id)
+                if claims_ours:
+                    j = self.config.joints[self._ids[data2 & 0xFF]]
+                    self._fault(f"malformed frame from motor {j.name} (CAN id {j.can_id}): {e.reason}")
+                else:
+                    self.ignored[e.reason.split(",")[0][:60]] += 1
+            return
+        with self._cond:
+            self.rx_frames += 1
+            i = self._ids.get(frame.motor_id)
+            if i is None:  # a DeviceId reply from an unconfigured motor
+                self.ignored["unconfigured motor"] += 1
+                return
+            s, j = self._state[i], self.config.joints[i]
+            if isinstance(frame, P.Feedback):
+                s.q = j.q_from_motor(frame.position)
+                s.dq = j.dq_from_motor(frame.velocity)
+                s.tau = j.tau_from_motor(frame.torque)
+                s.temperature_c, s.mode, s.fault_bits = frame.temperature_c, frame.mode, frame.fault_bits
+                s.stamp_s, s.fresh, s.unanswered_since = now, True, None
+                s.frames += 1
+                if frame.fault_bits and self.fault_raises and self._started:
+                    self._fault(f"motor {j.name} (CAN id {j.can_id}) reports "
+                                f"{', '.join(P.describe_feedback_faults(frame.fault_bits))}")
+                if frame.mode == P.MotorMode.RUN:
+                    s.run_seen = True
+                elif self._enabled and self._started and s.run_seen:
+                    self._fault(f"motor {j.name} (CAN id {j.can_id}) left run mode "
+                                f"(mode {P.MotorMode(frame.mode).name})")
+            elif isinstance(frame, P.FaultFrame):
+                s.fault_value, s.warning_value = frame.fault_value, frame.warning_value
+                if frame.fault_value and self.fault_raises:
+                    self._fault(f"fault frame from motor {j.name} (CAN id {j.can_id}): "
+                                f"{', '.join(frame.descriptions) or hex(frame.fault_value)}")
+                elif frame.warning_value:
+                    log.warning("motor %s warning %#x", j.name, frame.warning_value)
+            elif isinstance(frame, P.DeviceId):
+                s.uid = frame.uid
+            self._cond.notify_all()
+
+    def _on_error(self, exc: Exception) -> None:
+        with self._cond:
+            self._fault(f"CAN receive failed: {exc!r}")
+            self._cond.notify_all()
+
+    def _fault(self, reason: str) -> None:  # caller holds the lock
+        if reason not in self._errors:
+            self._errors.append(reason)
+            log.error("%s", reason)
+
+    def _raise_pending(self) -> None:  # caller holds the lock
+        if self._errors:
+            self.last_error = "; ".join(self._errors)
+            self._errors.clear()
+            raise MotorBusError(self.last_error)
+
+    # --- send path -----------------------------------------------------------------------------------
+    def _send(self, msg: can.Message) -> None:
+        if self._closed:
+            raise MotorBusError("CAN bus already shut down")
+        state = getattr(self.bus, "state", can.BusState.ACTIVE)
+        if state == can.BusState.ERROR:
+            raise MotorBusError("CAN bus is in its error (bus-off) state")
+        try:
+            self.bus.send(msg, timeout=0.0)
+        except (can.CanError, OSError) as e:
+            self.send_errors += 1
+            raise MotorBusError(f"CAN send failed: {e}") from e
+        self.tx_frames += 1
+        if self._logger is not None:
+            sent = can.Message(timestamp=time.time(), arbitration_id=msg.arbitration_id, data=msg.data,
+                               is_extended_id=True, is_rx=False, channel=msg.channel)
+            self._logger.on_message_received(sent)
+
+    def _expect_reply(self, i: int, now: float) -> None:
+        s = self._state[i]
+        if s.unanswered_since is None:
+            s.unanswered_since = now
+
+    def send(self, command: MotorCommand) -> None:
+        """Encode one frame per motor and queue it without waiting. Raises MotorBusError on faults."""
+        now = self._clock()
+        with self._cond:
+            self._raise_pending()
+        n = len(self.config.joints)
+        if not command.enable:
+            self._send_stops()
+            return
+        try:
+            arrays = [np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in
+                      (command.tau_ff, command.q_des, command.dq_des, command.kp, command.kd)]
+        except ValueError as e:
+            raise MotorBusError(f"command does not have {n} joints: {e}") from e
+        if not all(np.all(np.isfinite(a)) for a in arrays):
+            self._send_stops()
+            raise MotorBusError("non-finite motor command; motors stopped")
+        tau, q_des, dq_des, kp, kd = arrays
+        if not self._enabled:
+            self._send_enables()
+        host = self.config.host_id
+        for i, j in enumerate(self.config.joints):
+            if self.config.torque_mode == "operation":
+                msg = P.encode_operation_control(
+                    j.can_id, j.tau_to_motor(tau[i]), j.q_to_motor(q_des[i]), j.dq_to_motor(dq_des[i]),
+                    j.kp_to_motor(kp[i]), j.kd_to_motor(kd[i]), self._ranges)
+            else:
+                s = self._state[i]
+                t = tau[i] + kp[i] * (q_des[i] - s.q) + kd[i] * (dq_des[i] - s.dq)
+                iq = j.tau_to_motor(t) / self.config.kt_nm_per_a
+                msg = P.encode_param_write(j.can_id, "iq_ref", iq, host)
+            self._send(msg)
+            with self._cond:
+                self._expect_reply(i, now)
+
+    def _send_enables(self) -> None:
+        with self._cond:
+            for s in self._state:
+                s.run_seen = False
+        for j in self.config.joints:
+            self._send(P.encode_enable(j.can_id, self.config.host_id))
+        self._enabled = True
+
+    def _send_stops(self, clear_fault: bool = False) -> None:
+        """Type 4 to every motor; tries every motor even if one send fails, then raises the first error."""
+        first: Exception | None = None
+        now = self._clock()
+        for i, j in enumerate(self.config.joints):
+            try:
+                self._send(P.encode_stop(j.can_id, self.config.host_id, clear_fault))
+                self.stop_frames_sent += 1
+                with self._cond:
+                    self._expect_reply(i, now)
+            except Exception as e:
+                first = first or e
+        self._enabled = False
+        if first is not None:
+            raise first
+
+    def stop(self) -> None:
+        """Stop every motor (type 4). Safe to call more than once and after faults; never raises."""
+        if self._closed:
+            return
+        try:
+            self._send_stops()
+        except Exception as e:
+            log.error("could not send every stop frame: %s", e)
+
+    # --- receive -------------------------------------------------------------------------------------
+    def _silent(self, now: float) -> list[str]:
+        out = []
+        for s, j in zip(self._state, self.config.joints, strict=True):
+            if s.unanswered_since is not None and now - s.unanswered_since > self.config.silent_timeout_s:
+                out.append(f"{j.name} (CAN id {j.can_id})")
+        return out
+
+    def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
+        """Newest feedback once every motor has answered since the last one returned; None on timeout."""
+        deadline = None if timeout_s is None else self._clock() + timeout_s
+        with self._cond:
+            while True:
+                self._raise_pending()
+                if all(s.fresh for s in self._state):
+                    return self._snapshot()
+                now = self._clock()
+                if self._started:
+                    silent = self._silent(now)
+                    if silent:
+                        self.last_error = f"motor(s) stopped answering: {', '.join(silent)}"
+                        raise MotorBusError(self.last_error)
+                if deadline is not None and now >= deadline:
+                    return None
+                wait = 0.01 if deadline is None else min(0.01, deadline - now)
+                self._cond.wait(wait)
+
+    def _snapshot(self) -> MotorFeedback:  # caller holds the lock
+        st = self._state
+        for s in st:
+            s.fresh = False
+        self._seq += 1
+        fault = np.array([s.fault_bits | (FAULT_FRAME_FLAG if s.fault_value else 0) for s in st],
+                         dtype=np.int32)
+        return MotorFeedback(q=np.array([s.q for s in st]), dq=np.array([s.dq for s in st]),
+                             tau=np.array([s.tau for s in st]),
+                             temperature_c=np.array([s.temperature_c for s in st]),
+                             mode=np.array([s.mode for s in st], dtype=np.int32), fault=fault,
+                             stamp_s=max(s.stamp_s for s in st), seq=self._seq)
+
+    # --- start-up / shutdown -------------------------------------------------------------------------
+    def _wait_all(self, ok: Callable[[_JointState], bool], timeout_s: float) -> list[str]:
+        deadline = self._clock() + timeout_s
+        with self._cond:
+            while True:
+                missing = [f"{j.name} (CAN id {j.can_id})"
+                           for s, j in zip(self._state, self.config.joints, strict=True) if not ok(s)]
+                now = self._clock()
+                if not missing or now >= deadline:
+                    return missing
+                self._cond.wait(min(0.01, deadline - now))
+
+    def start(self, timeout_s: float | None = None) -> None:
+        """Handshake: every motor answers get-id, clears faults, takes its run mode and enables.
+
+        Raises MotorBusError naming the motors that did not answer (after sending them stop frames).
+        """
+        timeout_s = self.config.handshake_timeout_s if timeout_s is None else timeout_s
+        host, cfg = self.config.host_id, self.config
+        try:
+            with self._cond:
+                for s in self._state:
+                    s.uid = None
+            for j in cfg.joints:
+                self._send(P.encode_get_id(j.can_id, host))
+            missing = self._wait_all(lambda s: s.uid is not None, timeout_s)
+            if missing:
+                raise MotorBusError(f"no answer within {timeout_s:g} s from motor(s) {', '.join(missing)}")
+            with self._cond:
+                for s in self._state:
+                    s.frames = 0
+            run_mode = P.RunMode.OPERATION if cfg.torque_mode == "operation" else P.RunMode.CURRENT
+            for j in cfg.joints:  # the firmware switches mode only when stopped
+                self._send(P.encode_stop(j.can_id, host, clear_fault=True))
+                self._send(P.encode_param_write(j.can_id, "run_mode", int(run_mode), host))
+                self._send(P.encode_param_write(j.can_id, "limit_torque", cfg.limit_torque_nm, host))
+                if run_mode == P.RunMode.CURRENT:
+                    self._send(P.encode_param_write(j.can_id, "iq_ref", 0.0, host))
+            self._send_enables()
+            missing = self._wait_all(
+                lambda s: s.frames >= 1 and s.mode == P.MotorMode.RUN and not s.fault_bits, timeout_s)
+            if missing:
+                raise MotorBusError(f"motor(s) {', '.join(missing)} did not enable within {timeout_s:g} s")
+            with self._cond:
+                self._errors.clear()
+                for s in self._state:
+                    s.unanswered_since = None
+                self._started = True
+        except BaseException:
+            self.stop()
+            raise
+
+    def shutdown(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self._notifier.stop()
+        if self._logger is not None:
+            self._logger.stop()
+        if self._own_bus:
+            self.bus.shutdown()
+
+    def __exit__(self, *exc: object) -> None:
+        try:
+            self.stop()
+        finally:
+            self.shutdown()
+
+    # --- introspection ----------------------------------------------------------------------------------
+    def fault_report(self) -> dict[str, dict[str, object]]:
+        with self._cond:
+            return {j.name: {"can_id": j.can_id, "mode": s.mode,
+                             "feedback_faults": P.describe_feedback_faults(s.fault_bits),
+                             "fault_frame": P.describe_fault_value(s.fault_value),
+                             "warning_value": s.warning_value}
+                    for s, j in zip(self._state, self.config.joints, strict=True)}
+
+
+class _Listener(can.Listener):
+    def __init__(self, owner: CanMotorBus) -> None:
+        self.owner = owner
+
+    def on_message_received(self, msg: can.Message) -> None:
+        self.owner._on_message(msg)
+
+    def on_error(self, exc: Exception) -> None:
+        self.owner._on_error(exc)
+
+    def stop(self) -> None:
+        pass
+
+
+def install_stop_handlers(bus: MotorBus) -> Callable[[], None]:
+    """Stop the motors on SIGINT, SIGTERM and interpreter exit. Returns a function that undoes it.
+
+    SIGINT then raises KeyboardInterrupt and SIGTERM SystemExit(143), so `finally` blocks and `with`
+    exits run as well (they call `stop()` again, which is harmless). Call from the main thread.
+    """
+    previous = {}
+
+    def handler(signum: int, frame: object) -> None:
+        bus.stop()
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise SystemExit(128 + signum)
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        previous[sig] = signal.signal(sig, handler)
+    atexit.register(bus.stop)
+
+    def restore() -> None:
+        for sig, h in previous.items():
+            with contextlib.suppress(ValueError, TypeError):
+                signal.signal(sig, h)
+        atexit.unregister(bus.stop)
+
+    return restore
+
+
+__all__ = ["FAULT_FRAME_FLAG", "CanMotorBus", "install_stop_handlers", "open_bus"]
