@@ -75,14 +75,16 @@ class CanMotorBus(MotorBus):
     def __init__(self, config: CyberGearConfig | str | Path | None = None, bus: can.BusABC | None = None, *,
                  interface: str | None = None, channel: str | None = None, bitrate: int | None = None,
                  log_path: str | Path | None = None, fault_raises: bool = True,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 stamp_clock: Callable[[], float] | None = None) -> None:
         if config is None or isinstance(config, (str, Path)):
             config = load_config(config)
         self.config = config
         self.joint_names = tuple(j.name for j in config.joints)
         self._ids = {j.can_id: i for i, j in enumerate(config.joints)}
         self._ranges = config.ranges
-        self._clock = clock
+        self._clock = clock  # timeouts
+        self._stamp_clock = stamp_clock or clock  # MotorFeedback.stamp_s (a simulation may supply its time)
         self.fault_raises = fault_raises
         self._own_bus = bus is None
         if bus is None:
@@ -112,7 +114,6 @@ class CanMotorBus(MotorBus):
 
     # --- receive path (notifier thread) ----------------------------------------------------------------
     def _on_message(self, msg: can.Message) -> None:
-        now = self._clock()
         if msg.is_error_frame:
             with self._cond:
                 if msg.arbitration_id & CAN_ERR_BUSOFF:
@@ -145,7 +146,7 @@ class CanMotorBus(MotorBus):
                 s.dq = j.dq_from_motor(frame.velocity)
                 s.tau = j.tau_from_motor(frame.torque)
                 s.temperature_c, s.mode, s.fault_bits = frame.temperature_c, frame.mode, frame.fault_bits
-                s.stamp_s, s.fresh, s.unanswered_since = now, True, None
+                s.stamp_s, s.fresh, s.unanswered_since = self._stamp_clock(), True, None
                 s.frames += 1
                 if frame.fault_bits and self.fault_raises and self._started:
                     self._fault(f"motor {j.name} (CAN id {j.can_id}) reports "
