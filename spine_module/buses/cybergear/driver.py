@@ -106,10 +106,8 @@ class CanMotorBus(MotorBus):
         self.send_errors = 0
         self.ignored: Counter[str] = Counter()  # frames not for us: reason -> count
         self.last_error: str | None = None
-        self._logger: can.Listener | None = can.Logger(str(log_path)) if log_path else None
-        listener = _Listener(self)
-        listeners: list[can.Listener] = [listener] + ([self._logger] if self._logger else [])
-        self._notifier = can.Notifier(self.bus, listeners, timeout=0.05)
+        self._logger = _SessionLog(log_path) if log_path else None
+        self._notifier = can.Notifier(self.bus, [_Listener(self)], timeout=0.05)
         self.load = bus_load(len(config.joints), config.rate_hz, config.bitrate)
 
     # --- receive path (notifier thread) ----------------------------------------------------------------
@@ -397,6 +395,8 @@ class _Listener(can.Listener):
         self.owner = owner
 
     def on_message_received(self, msg: can.Message) -> None:
+        if self.owner._logger is not None:
+            self.owner._logger.on_message_received(msg)
         self.owner._on_message(msg)
 
     def on_error(self, exc: Exception) -> None:
@@ -404,6 +404,27 @@ class _Listener(can.Listener):
 
     def stop(self) -> None:
         pass
+
+
+class _SessionLog(can.Listener):
+    """A python-can Logger (.asc/.blf/.log/.csv by suffix) written from two threads: received frames from
+    the notifier, sent frames from the control loop."""
+
+    def __init__(self, path: str | Path) -> None:
+        self._writer = can.Logger(str(path))
+        self._lock = threading.Lock()
+        self._open = True
+
+    def on_message_received(self, msg: can.Message) -> None:
+        with self._lock:
+            if self._open:
+                self._writer.on_message_received(msg)
+
+    def stop(self) -> None:
+        with self._lock:
+            if self._open:
+                self._open = False
+                self._writer.stop()
 
 
 def install_stop_handlers(bus: MotorBus) -> Callable[[], None]:
