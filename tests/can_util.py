@@ -53,6 +53,13 @@ def virtual_rig(ids=(1, 2, 3), lockstep: bool = True, **emu_kw) -> Iterator[tupl
         sbus.shutdown()
 
 
+def rig_config(**kw):
+    """The packaged config with a silent-motor timeout that tolerates a loaded CI machine (stalls of
+    ~80 ms were seen here with 5 users on 2 cores)."""
+    from spine_module.buses.cybergear import load_config
+    return load_config().with_(**{"silent_timeout_s": 0.5, **kw})
+
+
 def stops_to(sniffer: Sniffer, motor_id: int) -> int:
     return len(sniffer.of_type(P.CommType.STOP, motor_id))
 

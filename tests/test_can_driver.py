@@ -13,11 +13,11 @@ from spine_module.buses.base import MotorCommand
 from spine_module.buses.cybergear import CanMotorBus, JointConfig, load_config
 from spine_module.buses.cybergear import protocol as P
 from spine_module.buses.cybergear.config import DEFAULT_CONFIG_PATH, KT_NM_PER_A
-from tests.can_util import virtual_rig, wait_for
+from tests.can_util import rig_config, virtual_rig, wait_for
 
 
 def _bus(channel, cfg=None, **kw):
-    return CanMotorBus(cfg or load_config(), interface="virtual", channel=channel, **kw)
+    return CanMotorBus(cfg or rig_config(), interface="virtual", channel=channel, **kw)
 
 
 def test_default_config_file():
@@ -64,7 +64,7 @@ def test_handshake_and_pure_torque_operation_control():
 
 
 def test_direction_offset_and_gains_reach_the_motor():
-    base = load_config()
+    base = rig_config()
     joints = (dataclasses.replace(base.joints[0], direction=-1, zero_offset_rad=0.5),
               base.joints[1], dataclasses.replace(base.joints[2], gear_ratio=2.0))
     cfg = dataclasses.replace(base, joints=joints)
@@ -74,7 +74,7 @@ def test_direction_offset_and_gains_reach_the_motor():
         fb = mb.receive(1.0)
         assert fb.q == pytest.approx([-(0.3 - 0.5), -0.2, 0.5], abs=1e-3)
         mb.send(MotorCommand(tau_ff=np.array([1.0, 1.0, 1.0]), q_des=np.array([0.1, 0.1, 0.1]),
-                             dq_des=np.zeros(3), kp=np.array([20.0, 20.0, 20.0]), kd=np.array([1.0, 1.0, 1.0])))
+                             dq_des=np.zeros(3), kp=np.full(3, 20.0), kd=np.full(3, 1.0)))
         mb.receive(1.0)
         c1, c3 = emu.frames_of(P.OperationControl, 1)[-1], emu.frames_of(P.OperationControl, 3)[-1]
         assert c1.torque == pytest.approx(-1.0, abs=1e-3) and c1.position == pytest.approx(0.4, abs=1e-3)
@@ -84,7 +84,7 @@ def test_direction_offset_and_gains_reach_the_motor():
 
 
 def test_current_mode_torque_control():
-    cfg = dataclasses.replace(load_config(), torque_mode="current")
+    cfg = rig_config(torque_mode="current")
     with virtual_rig() as (channel, emu, _sn), _bus(channel, cfg) as mb:
         mb.start()
         assert all(emu.motors[i].params["run_mode"] == P.RunMode.CURRENT for i in (1, 2, 3))
@@ -103,7 +103,7 @@ def test_current_mode_torque_control():
 
 
 def test_disable_sends_stop_and_reenable(tmp_path):
-    with virtual_rig() as (channel, emu, sniffer), _bus(channel) as mb:
+    with virtual_rig() as (channel, emu, _sniffer), _bus(channel) as mb:
         mb.start()
         mb.receive(1.0)
         mb.send(MotorCommand.zero(3, enable=False))

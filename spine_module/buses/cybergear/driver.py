@@ -235,9 +235,9 @@ class CanMotorBus(MotorBus):
                 t = tau[i] + kp[i] * (q_des[i] - s.q) + kd[i] * (dq_des[i] - s.dq)
                 iq = j.tau_to_motor(t) / self.config.kt_nm_per_a
                 msg = P.encode_param_write(j.can_id, "iq_ref", iq, host)
-            self._send(msg)
-            with self._cond:
+            with self._cond:  # before sending: the reply may arrive before _send returns
                 self._expect_reply(i, now)
+            self._send(msg)
 
     def _send_enables(self) -> None:
         with self._cond:
@@ -253,10 +253,10 @@ class CanMotorBus(MotorBus):
         now = self._clock()
         for i, j in enumerate(self.config.joints):
             try:
-                self._send(P.encode_stop(j.can_id, self.config.host_id, clear_fault))
-                self.stop_frames_sent += 1
                 with self._cond:
                     self._expect_reply(i, now)
+                self._send(P.encode_stop(j.can_id, self.config.host_id, clear_fault))
+                self.stop_frames_sent += 1
             except Exception as e:
                 first = first or e
         self._enabled = False
