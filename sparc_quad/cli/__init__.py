@@ -11,7 +11,7 @@ import importlib
 import logging
 import sys
 
-COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node")
+COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node", "motors")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -126,7 +126,7 @@ class CyberGearEmulator:
     def __init__(self, bus: can.BusABC, ids: Iterable[int] = (1, 2, 3), plant: Plant | None = None, *,
                  host_id: int = P.DEFAULT_HOST_ID, ranges: P.Ranges = P.DEFAULT_RANGES,
                  lockstep: bool = False, dt: float = 0.001, kt_nm_per_a: float = KT_NM_PER_A,
-                 start: bool = True) -> None:
+                 start: bool = True, log: can.Listener | None = None) -> None:
         ids = list(ids)
         self.bus = bus
         self.motors: dict[int, EmulatedMotor] = {
@@ -146,6 +146,7 @@ class CyberGearEmulator:
         self.steps = 0
         self.keep_log = True
         self._pending: set[int] = set()  # commanded this lockstep cycle
+        self.log = log  # a python-can Logger: frames received and sent
         self._notifier: can.Notifier | None = can.Notifier(bus, [self._on_message], timeout=0.05) \
             if start else None
 
@@ -185,6 +186,8 @@ class CyberGearEmulator:
         try:
             self.bus.send(msg, timeout=0.1)
             self.sent += 1
+            if self.log is not None:
+                self.log.on_message_received(msg)
         except can.CanError as e:  # a real motor's transmit failures are invisible to it too
             log.warning("emulator send failed: %s", e)
 
@@ -201,6 +204,8 @@ class CyberGearEmulator:
     # --- frames in -----------------------------------------------------------------------------------
     def _on_message(self, msg: can.Message) -> None:
         with self.lock:
+            if self.log is not None:
+                self.log.on_message_received(msg)
             self.handle(msg)
 
     def handle(self, msg: can.Message) -> None:
@@ -323,6 +328,10 @@ class CyberGearEmulator:
         if self._notifier is not None:
             self._notifier.stop()
             self._notifier = None
+        with self.lock:
+            if self.log is not None:
+                self.log.stop()
+                self.log = None
 
 
 def parse_ids(text: str) -> list[int]:

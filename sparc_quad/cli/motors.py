@@ -1,0 +1,157 @@
+"""`sparc-quad motors`: CyberGear motors on a CAN bus: scan, status, enable, disable, zero, set-id, emulate.
+
+Every action takes python-can's usual `--interface`, `--channel`, `--bitrate`; `--log PATH` records the
+session's frames with python-can (`.asc`, `.blf`, `.log`, `.csv` by suffix). Motor ids come from `--ids`
+or from the per-joint config (`--motor-config`, default the packaged motors.toml).
+
+`emulate` answers as motors `--ids` on the bus until SIGINT/SIGTERM: `--plant free` (an inertia per motor,
+real time) or `--plant bench` (the pybullet bench spine), `--lockstep` to step the plant once per full set
+of commands instead of in real time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+
+from spine_module.buses.cybergear import protocol as P
+from spine_module.buses.cybergear.config import DEFAULT_CONFIG_PATH, load_config
+from spine_module.buses.cybergear.driver import open_bus
+
+ACTIONS = ("scan", "status", "enable", "disable", "zero", "set-id", "emulate")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("motors", help="CyberGear motors on CAN: scan, status, enable, disable, zero, set-id, "
+                                      "emulate")
+    p.add_argument("action", choices=ACTIONS)
+    p.add_argument("--interface", default="socketcan",
+                   help="python-can interface: socketcan, pcan, slcan, gs_usb, virtual, udp_multicast, ...")
+    p.add_argument("--channel", default="can0", help="python-can channel (default: %(default)s)")
+    p.add_argument("--bitrate", type=int, default=1_000_000, help="bit/s (default: %(default)s)")
+    p.add_argument("--host-id", type=lambda s: int(s, 0), default=None,
+                   help="this host's CAN id (default: from the motor config)")
+    p.add_argument("--ids", default=None, help="motor ids, e.g. 1,2,3 (default: from the motor config; "
+                                               "scan: 1..127)")
+    p.add_argument("--motor-config", default=str(DEFAULT_CONFIG_PATH), help="per-joint config (TOML)")
+    p.add_argument("--timeout", type=float, default=0.5, help="seconds to wait for replies")
+    p.add_argument("--log", default=None, metavar="PATH", help="log the session's frames (.asc/.blf/...)")
+    p.add_argument("--clear-fault", action="store_true", help="disable: also clear latched faults")
+    p.add_argument("--new-id", type=int, default=None, help="set-id: the new id (1..127); --ids: the old one")
+    p.add_argument("--yes", action="store_true", help="enable/zero/set-id: do it without asking")
+    p.add_argument("--plant", choices=("free", "bench"), default="free",
+                   help="emulate: physics behind the motors")
+    p.add_argument("--lockstep", action="store_true", help="emulate: one plant step per full command set")
+    p.add_argument("--duration", type=float, default=None, help="emulate: stop after this many seconds")
+    p.set_defaults(func=run)
+
+
+def _ids(args: argparse.Namespace, cfg) -> list[int]:
+    from sparc_quad.sim.cybergear_emulator import parse_ids
+    if args.ids:
+        return parse_ids(args.ids)
+    return list(range(1, 128)) if args.action == "scan" else list(cfg.ids)
+
+
+def run(args: argparse.Namespace) -> int:
+    cfg = load_config(args.motor_config)
+    host = cfg.host_id if args.host_id is None else args.host_id
+    ids = _ids(args, cfg)
+    if args.action == "emulate":
+        return _emulate(args, ids, host, cfg)
+    if args.action in ("enable", "zero", "set-id") and not args.yes and sys.stdin.isatty():
+        answer = input(f"{args.action} motor(s) {ids} on {args.interface}:{args.channel}? [y/N] ")
+        if answer.strip().lower() not in ("y", "yes"):
+            return 1
+    from spine_module.buses.cybergear import tools
+
+    bus = open_bus(args.interface, args.channel, args.bitrate)
+    with tools.Session(bus, host, cfg.ranges, args.log) as s:
+        if args.action == "scan":
+            found = tools.scan(s, ids, args.timeout)
+            if not found:
+                print("no motors answered")
+                return 1
+            print(f"{'CAN id':>6}  MCU uid")
+            for i, uid in sorted(found.items()):
+                print(f"{i:>6}  {uid.hex()}")
+            return 0
+        if args.action == "status":
+            sts = tools.status(s, ids, args.timeout)
+            missing = [i for i, st in sts.items() if st.uid is None and not st.params]
+            for i, st in sts.items():
+                if i in missing:
+                    print(f"motor {i}: no answer")
+                    continue
+                params = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                                   for k, v in st.params.items())
+                print(f"motor {i}: uid {st.uid.hex() if st.uid else '?'}; {params}")
+            return 1 if missing else 0
+        if args.action == "set-id":
+            if len(ids) != 1 or args.new_id is None:
+                print("set-id needs exactly one --ids (the current id) and --new-id", file=sys.stderr)
+                return 2
+            uid = tools.set_id(s, ids[0], args.new_id, args.timeout)
+            outcome = f"answered, uid {uid.hex()}" if uid else "no answer"
+            print(f"motor {ids[0]} -> {args.new_id}: {outcome}")
+            return 0 if uid else 1
+        kind = args.action
+        got = tools.command(s, ids, kind, args.timeout, clear_fault=args.clear_fault)
+        for i, fb in got.items():
+            if fb is None:
+                print(f"motor {i}: no answer")
+            else:
+                faults = ", ".join(P.describe_feedback_faults(fb.fault_bits)) or "none"
+                print(f"motor {i}: mode {P.MotorMode(fb.mode).name}, position {fb.position:+.4f} rad, "
+                      f"faults {faults}")
+        return 0 if all(fb is not None for fb in got.values()) else 1
+
+
+def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg) -> int:
+    from sparc_quad.sim.cybergear_emulator import CyberGearEmulator, FreePlant
+
+    stop = threading.Event()
+
+    def on_signal(signum, frame):
+        stop.set()
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, on_signal)
+    bus = open_bus(args.interface, args.channel, args.bitrate)
+    world = None
+    try:
+        if args.plant == "bench":
+            from sparc_quad.sim.bench_world import BenchWorld
+            from sparc_quad.sim.cybergear_bench import BenchCoupling
+            world = BenchWorld()
+            plant = BenchCoupling(world, ids)
+        else:
+            plant = FreePlant(ids)
+        log = None
+        if args.log:
+            import can
+            log = can.Logger(args.log)
+        emu = CyberGearEmulator(bus, ids, plant, host_id=host, ranges=cfg.ranges, lockstep=args.lockstep,
+                                log=log)
+        emu.keep_log = False
+        print(f"emulating CyberGear motor(s) {ids} on {args.interface}:{args.channel} "
+              f"({args.plant} plant{', lockstep' if args.lockstep else ''}); Ctrl-C to stop", flush=True)
+        if args.lockstep:
+            stop.wait(args.duration)
+        else:
+            timer = threading.Timer(args.duration, stop.set) if args.duration else None
+            if timer:
+                timer.start()
+            emu.run(stop)
+            if timer:
+                timer.cancel()
+        emu.shutdown()
+        print(f"emulator: {len(emu.rejected)} frames rejected, {len(emu.refused)} commands refused, "
+              f"{emu.sent} frames sent, {emu.steps} plant steps", flush=True)
+    finally:
+        bus.shutdown()
+        if world is not None:
+            world.close()
+    return 0
