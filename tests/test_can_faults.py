@@ -222,7 +222,7 @@ def test_sigterm_sends_stop_frames(tmp_path):
         line = proc.stdout.readline()
         assert line.strip() == "READY", proc.stderr.read()
         proc.send_signal(signal.SIGTERM)
-        out, err = proc.communicate(timeout=60)
+        out, err = proc.communicate(timeout=30)
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -92,7 +92,8 @@ class CanMotorBus(MotorBus):
                 raise ValueError("give a python-can bus, or interface and channel")
             bus = open_bus(interface, channel, bitrate or config.bitrate)
         self.bus = bus
-        self._lock = threading.Lock()
+        # re-entrant: a signal handler calling stop() may interrupt the main thread inside receive()
+        self._lock = threading.RLock()
         self._cond = threading.Condition(self._lock)
         self._state = [_JointState() for _ in config.joints]
         self._errors: list[str] = []  # pending transport / protocol faults, raised on the next call
