@@ -136,3 +136,18 @@ def test_bus_load_is_accounted_on_construction(caplog):
         with caplog.at_level("WARNING"), _bus(channel) as mb:
             assert mb.load.frames_per_s == 6000 and mb.load.utilisation_worst == pytest.approx(0.96)
         assert "exceeds 80 %" in caplog.text
+
+
+def test_stats_and_emulated_speed_and_position_modes():
+    with virtual_rig() as (channel, emu, _sn), _bus(channel) as mb:
+        mb.start()
+        st = mb.stats()
+        assert st["tx_frames"] == 15 and st["rx_frames"] >= 15  # 5 frames per motor in the handshake
+    m = emu.motors[1]
+    m.mode = P.MotorMode.RUN
+    m.params.update(run_mode=P.RunMode.SPEED, spd_ref=2.0, spd_kp=1.0, limit_cur=5.0)
+    assert m.torque(0.0, 0.0) == pytest.approx(2.0 * KT_NM_PER_A)
+    assert m.torque(0.0, 10.0) == pytest.approx(-5.0 * KT_NM_PER_A)  # current-limited
+    m.params.update(run_mode=P.RunMode.POSITION, loc_ref=1.0, limit_spd=0.5)
+    assert m.torque(0.0, 0.0) == pytest.approx(0.5 * KT_NM_PER_A)  # speed-limited approach
+    assert m.torque(1.0, 0.0) == 0.0

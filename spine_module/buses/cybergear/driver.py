@@ -110,6 +110,7 @@ class CanMotorBus(MotorBus):
         self._logger = _SessionLog(log_path) if log_path else None
         self._notifier = can.Notifier(self.bus, [_Listener(self)], timeout=0.05)
         self.load = bus_load(len(config.joints), config.rate_hz, config.bitrate)
+        self._t_created = time.monotonic()
 
     # --- receive path (notifier thread) ----------------------------------------------------------------
     def _on_message(self, msg: can.Message) -> None:
@@ -382,6 +383,14 @@ class CanMotorBus(MotorBus):
             self.shutdown()
 
     # --- introspection ----------------------------------------------------------------------------------
+    def stats(self) -> dict[str, float | int]:
+        """Frames counted since construction, their rates, and the bus-load model at the configured rate."""
+        dt = max(time.monotonic() - self._t_created, 1e-9)
+        return {"tx_frames": self.tx_frames, "rx_frames": self.rx_frames, "tx_per_s": self.tx_frames / dt,
+                "rx_per_s": self.rx_frames / dt, "send_errors": self.send_errors,
+                "stop_frames_sent": self.stop_frames_sent, "ignored": sum(self.ignored.values()),
+                "model_utilisation_worst": self.load.utilisation_worst}
+
     def fault_report(self) -> dict[str, dict[str, object]]:
         with self._cond:
             return {j.name: {"can_id": j.can_id, "mode": s.mode,
