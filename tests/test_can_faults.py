@@ -119,7 +119,7 @@ def test_frames_for_others_are_ignored_not_faults():
         other.send(can.Message(arbitration_id=0x123, data=b"x", is_extended_id=False))
         assert _control_loop(mb, cycles=20) is None
         other.shutdown()
-        assert sum(mb.ignored.values()) >= 3
+        assert wait_for(lambda: sum(mb.ignored.values()) >= 3)
 
 
 class _FailingBus(can.BusABC):
