@@ -29,3 +29,17 @@ def test_static_stiffness_over_can(k):
     assert fit.r2 > 0.99
     inproc, _, _ = static.measure_stiffness(k, cfg, model)
     assert abs(fit.slope - inproc.k_hat) / k < 0.005  # the bus changes the result by < 0.5 % of k
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k", [300.0, 400.0, 500.0, 600.0, 700.0])
+def test_static_table_over_can(k):
+    """The paper's full Table IV protocol (two 8 s push-pulls per k) over CAN frames."""
+    cfg = static.StaticConfig()
+    model = SpineModel()
+    ctrl = rig.make_controller(cfg.controller, model, (k, cfg.k_z, cfg.k_theta), cfg.d)
+    log = static_trial_over_can(ctrl, cfg.cycles * cfg.period_s,
+                                static.push_pull(k * cfg.amplitude_m, cfg.period_s), plant=cfg.plant,
+                                seed=cfg.seed, sample_every=cfg.sample_every)
+    fit = ols(log.x_meas[:, 0] - P.X_EQUILIBRIUM[0], log.f_cell)
+    assert abs(fit.slope - k) / k < 0.015 and fit.r2 > 0.99
