@@ -231,3 +231,14 @@ def test_sigterm_sends_stop_frames(tmp_path):
     assert result["exit"] == 143 and result["ticks"] >= 100
     assert all(n >= 1 for n in result["new_stops"].values()), result
     assert all(m == P.MotorMode.RESET for m in result["modes"].values()), result
+
+
+def test_motor_that_will_not_enable_is_named_with_its_fault():
+    with virtual_rig() as (channel, emu, sniffer):
+        emu.motors[3].stuck_fault_bits = 1 << P.FeedbackFault.NOT_CALIBRATED
+        mb = CanMotorBus(rig_config(), interface="virtual", channel=channel)
+        with pytest.raises(MotorBusError, match=r"q4 \(CAN id 3\) did not enable within 0.3 s "
+                                                r".*q4: mode 0, faults not calibrated"):
+            mb.start(timeout_s=0.3)
+        mb.shutdown()
+        assert all(wait_for(lambda i=i: stops_to(sniffer, i) >= 2) for i in (1, 2, 3))

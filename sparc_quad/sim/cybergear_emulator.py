@@ -85,6 +85,7 @@ class EmulatedMotor:
     mode: int = P.MotorMode.RESET
     fault_bits: int = 0
     fault_value: int = 0
+    stuck_fault_bits: int = 0  # feedback fault bits a clear cannot remove (e.g. not calibrated)
     warning_value: int = 0
     silent: bool = False
     zero_rad: float = 0.0  # physical position of the mechanical zero (type 6)
@@ -231,6 +232,7 @@ class CyberGearEmulator:
             m.cmd = (frame.torque, frame.position, frame.velocity, frame.kp, frame.kd)
             self._commanded(m)
         elif isinstance(frame, P.Enable):
+            m.fault_bits |= m.stuck_fault_bits
             if not (m.fault_bits or m.fault_value):
                 m.mode = P.MotorMode.RUN
             self.torques()
@@ -238,7 +240,7 @@ class CyberGearEmulator:
         elif isinstance(frame, P.Stop):
             m.mode = P.MotorMode.RESET
             if frame.clear_fault:
-                m.fault_bits = m.fault_value = m.warning_value = 0
+                m.fault_bits, m.fault_value, m.warning_value = m.stuck_fault_bits, 0, 0
             self._pending.discard(m.can_id)
             self._reply_feedback(m)
         elif isinstance(frame, P.SetZero):

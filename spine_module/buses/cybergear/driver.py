@@ -154,8 +154,8 @@ class CanMotorBus(MotorBus):
                 if frame.mode == P.MotorMode.RUN:
                     s.run_seen = True
                 elif self._enabled and self._started and s.run_seen:
-                    self._fault(f"motor {j.name} (CAN id {j.can_id}) left run mode "
-                                f"(mode {P.MotorMode(frame.mode).name})")
+                    mode = P.MotorMode(frame.mode).name if frame.mode <= 2 else str(frame.mode)
+                    self._fault(f"motor {j.name} (CAN id {j.can_id}) left run mode (mode {mode})")
             elif isinstance(frame, P.FaultFrame):
                 s.fault_value, s.warning_value = frame.fault_value, frame.warning_value
                 if frame.fault_value and self.fault_raises:
@@ -335,8 +335,9 @@ class CanMotorBus(MotorBus):
         host, cfg = self.config.host_id, self.config
         try:
             with self._cond:
+                self._started = False
                 for s in self._state:
-                    s.uid = None
+                    s.uid, s.fault_value, s.warning_value = None, 0, 0
             for j in cfg.joints:
                 self._send(P.encode_get_id(j.can_id, host))
             missing = self._wait_all(lambda s: s.uid is not None, timeout_s)
@@ -356,7 +357,15 @@ class CanMotorBus(MotorBus):
             missing = self._wait_all(
                 lambda s: s.frames >= 1 and s.mode == P.MotorMode.RUN and not s.fault_bits, timeout_s)
             if missing:
-                raise MotorBusError(f"motor(s) {', '.join(missing)} did not enable within {timeout_s:g} s")
+                with self._cond:
+                    why = []
+                    for s, j in zip(self._state, self.config.joints, strict=True):
+                        faults = (P.describe_feedback_faults(s.fault_bits)
+                                  + P.describe_fault_value(s.fault_value))
+                        if s.frames:
+                            why.append(f"{j.name}: mode {s.mode}, faults {', '.join(faults) or 'none'}")
+                raise MotorBusError(f"motor(s) {', '.join(missing)} did not enable within {timeout_s:g} s"
+                                    + (f" ({'; '.join(why)})" if why else ""))
             with self._cond:
                 self._errors.clear()
                 for s in self._state:
