@@ -449,13 +449,15 @@ class _SessionLog(can.Listener):
 def install_stop_handlers(bus: MotorBus) -> Callable[[], None]:
     """Stop the motors on SIGINT, SIGTERM and interpreter exit. Returns a function that undoes it.
 
-    SIGINT then raises KeyboardInterrupt and SIGTERM SystemExit(143), so `finally` blocks and `with`
-    exits run as well (they call `stop()` again, which is harmless). Call from the main thread.
+    The handler sends the stop frames from a fresh thread (the interrupted main thread may hold a lock of
+    the CAN stack, so sending from the handler itself could deadlock), then raises KeyboardInterrupt
+    (SIGINT) or SystemExit(143) (SIGTERM) so that `finally` blocks, `with` exits and atexit run too; each
+    calls `stop()` again, which is harmless. Call from the main thread.
     """
     previous = {}
 
     def handler(signum: int, frame: object) -> None:
-        bus.stop()
+        threading.Thread(target=bus.stop, name="cybergear-stop", daemon=False).start()
         if signum == signal.SIGINT:
             raise KeyboardInterrupt
         raise SystemExit(128 + signum)
