@@ -1,9 +1,9 @@
 """Registry hooks for `spine-node --motors can` (see `spine_module.buses.registry` on the node's side).
 
 `add_arguments` adds the CAN options (prefixed, so they cannot collide with the node's own);
-`make_bus` opens the python-can bus, builds `CanMotorBus` from the per-joint config file and runs its
-start-up handshake, so the node receives motors that answered, cleared faults and are enabled (a motor
-that did not answer raises MotorBusError naming it, after stop frames went out).
+`make_bus` opens the python-can bus and builds `CanMotorBus` from the per-joint config file; the node then
+calls `start()`, the handshake (a motor that does not answer raises MotorBusError naming it, after stop
+frames went out), and `stop()`/`shutdown()` when it ends.
 """
 
 from __future__ import annotations
@@ -28,13 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def make_bus(args: argparse.Namespace, lc=None) -> CanMotorBus:
     cfg = load_config(getattr(args, "motor_config", None))
-    bus = CanMotorBus(cfg, interface=getattr(args, "can_interface", "socketcan"),
-                      channel=getattr(args, "can_channel", "can0"),
-                      bitrate=getattr(args, "can_bitrate", cfg.bitrate),
-                      log_path=getattr(args, "can_log", None))
-    try:
-        bus.start()
-    except BaseException:
-        bus.shutdown()
-        raise
-    return bus
+    return CanMotorBus(cfg, interface=getattr(args, "can_interface", "socketcan"),
+                       channel=getattr(args, "can_channel", "can0"),
+                       bitrate=getattr(args, "can_bitrate", cfg.bitrate),
+                       log_path=getattr(args, "can_log", None))
