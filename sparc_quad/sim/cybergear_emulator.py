@@ -19,8 +19,10 @@ other frame (initially `host_id`), which is how drivers that filter on bits 15..
 
 Physics: a `Plant` supplies each motor's output position/velocity and receives its torque. `FreePlant`
 is a rotor-plus-load inertia per motor; `CallbackPlant` couples any simulation (the pybullet bench spine).
-With `lockstep=True` the emulator holds the feedback to operation-control / iq_ref frames until every
-answering motor has been commanded, steps the plant by `dt` with the resulting torques, then answers all:
+With `lockstep=True` the emulator holds the feedback to a cycle's frame (operation control, an iq_ref
+write, or a plain stop, which is what a host sends each cycle while it holds the motors stopped; a stop
+that clears faults is a handshake frame, answered at once) until every answering motor has had one,
+steps the plant by `dt` with the resulting torques, then answers all:
 the node's next cycle sees the state after the step, deterministically and as fast as the host allows.
 Without lockstep, replies are immediate and `run(stop_event)` steps the plant in real time.
 """
@@ -241,8 +243,10 @@ class CyberGearEmulator:
             m.mode = P.MotorMode.RESET
             if frame.clear_fault:
                 m.fault_bits, m.fault_value, m.warning_value = m.stuck_fault_bits, 0, 0
-            self._pending.discard(m.can_id)
-            self._reply_feedback(m)
+                self._pending.discard(m.can_id)
+                self._reply_feedback(m)
+            else:  # a host holding its motors stopped sends one plain stop per cycle
+                self._commanded(m)
         elif isinstance(frame, P.SetZero):
             m.zero_rad = self.plant.read(self._plant_id[m.can_id])[0]
             self._reply_feedback(m)

@@ -95,6 +95,7 @@ class CanMotorBus(MotorBus):
         # re-entrant: a signal handler calling stop() may interrupt the main thread inside receive()
         self._lock = threading.RLock()
         self._cond = threading.Condition(self._lock)
+        self._stop_lock = threading.Lock()  # one stop sequence at a time; shutdown waits for it
         self._state = [_JointState() for _ in config.joints]
         self._errors: list[str] = []  # pending transport / protocol faults, raised on the next call
         self._enabled = False
@@ -266,13 +267,15 @@ class CanMotorBus(MotorBus):
             raise first
 
     def stop(self) -> None:
-        """Stop every motor (type 4). Safe to call more than once and after faults; never raises."""
-        if self._closed:
-            return
-        try:
-            self._send_stops()
-        except Exception as e:
-            log.error("could not send every stop frame: %s", e)
+        """Stop every motor (type 4). Safe to call more than once, from any thread, after faults; never
+        raises."""
+        with self._stop_lock:
+            if self._closed:
+                return
+            try:
+                self._send_stops()
+            except Exception as e:
+                log.error("could not send every stop frame: %s", e)
 
     # --- receive -------------------------------------------------------------------------------------
     def _silent(self, now: float) -> list[str]:
@@ -376,9 +379,12 @@ class CanMotorBus(MotorBus):
             raise
 
     def shutdown(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
+        """Stop the motors (the CyberGear has no watchdog: never leave them running), then release the bus."""
+        self.stop()
+        with self._stop_lock:
+            if self._closed:
+                return
+            self._closed = True
         self._notifier.stop()
         if self._logger is not None:
             self._logger.stop()
