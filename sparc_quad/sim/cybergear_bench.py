@@ -133,11 +133,13 @@ class NodeCanRun:
 
 def run_node_over_can(script, node_config=None, plant=None, seed: int = 0, controllers=None,
                       n_ticks: int | None = None, config=None, channel: str | None = None,
-                      heartbeat_period_s: float = 0.010, command_period_s: float = 0.010) -> NodeCanRun:
+                      heartbeat_period_s: float = 0.010, command_period_s: float = 0.010,
+                      on_tick: Callable[[int, CyberGearEmulator], None] | None = None) -> NodeCanRun:
     """The spine node with `--motors can`: node -> CanMotorBus -> virtual CAN -> emulated CyberGears
     (lockstep) -> pybullet bench spine. The robot side that is not motors (torso state, robot heartbeat,
     the torso computer's spine command, from `script`) reaches the node in process, as in the in-process
-    run; the load cell is logged here by world time, since CAN carries no load cell."""
+    run; the load cell is logged here by world time, since CAN carries no load cell. `on_tick(k, emulator)`
+    runs before tick k (fault injection)."""
     from spine_module.buses.cybergear import CanMotorBus, load_config
     from spine_module.messages import Heartbeat, TorsoState
     from spine_module.node import Controllers, SpineNode
@@ -171,7 +173,9 @@ def run_node_over_can(script, node_config=None, plant=None, seed: int = 0, contr
                     c = script.command
                     c.stamp_s, c.seq = t, k // cmd_every
                     io.send_command(c)
-                fb = node.receive(5.0)
+                if on_tick is not None:
+                    on_tick(k, emu)
+                fb = node.receive(0.5 if k else 5.0)
                 node.tick(t, fb)
         finally:
             node.stop()

@@ -97,7 +97,9 @@ class CanMotorBus(MotorBus):
         self._cond = threading.Condition(self._lock)
         self._stop_lock = threading.Lock()  # one stop sequence at a time; shutdown waits for it
         self._state = [_JointState() for _ in config.joints]
-        self._errors: list[str] = []  # pending transport / protocol faults, raised on the next call
+        # latched faults: raised by every receive() (so the node's feedback goes stale and it drops to its
+        # safe state) and by send() with enable=True, until start() clears them with the motors' faults
+        self._errors: list[str] = []
         self._enabled = False
         self._started = False
         self._closed = False
@@ -181,8 +183,12 @@ class CanMotorBus(MotorBus):
     def _raise_pending(self) -> None:  # caller holds the lock
         if self._errors:
             self.last_error = "; ".join(self._errors)
-            self._errors.clear()
             raise MotorBusError(self.last_error)
+
+    @property
+    def latched_faults(self) -> list[str]:
+        with self._cond:
+            return list(self._errors)
 
     # --- send path -----------------------------------------------------------------------------------
     def _send(self, msg: can.Message) -> None:
@@ -210,12 +216,16 @@ class CanMotorBus(MotorBus):
     def send(self, command: MotorCommand) -> None:
         """Encode one frame per motor and queue it without waiting. Raises MotorBusError on faults."""
         now = self._clock()
-        with self._cond:
-            self._raise_pending()
         n = len(self.config.joints)
         if not command.enable:
             self._send_stops()
             return
+        with self._cond:
+            latched = bool(self._errors)
+        if latched:  # never drive motors while a fault is latched
+            self._send_stops()
+            with self._cond:
+                self._raise_pending()
         try:
             arrays = [np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in
                       (command.tau_ff, command.q_des, command.dq_des, command.kp, command.kd)]
@@ -339,6 +349,7 @@ class CanMotorBus(MotorBus):
         try:
             with self._cond:
                 self._started = False
+                self._errors.clear()
                 for s in self._state:
                     s.uid, s.fault_value, s.warning_value = None, 0, 0
             for j in cfg.joints:
