@@ -48,3 +48,69 @@ def test_node_motor_faults_over_can(name, inject):
     assert all(s.mode == Mode.DISABLED for s in after), name  # feedback stale: zero torque
     assert all(np.all(s.tau_cmd == 0.0) for s in after)
     assert run.stop_frames_sent >= 3  # node.stop() at the end; latched faults also stop every tick
+
+
+NODE_CLI = """
+import json, signal, subprocess, sys, time, can
+subprocess.run(["ip", "link", "set", "lo", "up", "multicast", "on"], check=True)
+subprocess.run(["ip", "route", "add", "224.0.0.0/4", "dev", "lo"], check=True)
+from tests.can_util import Sniffer
+from spine_module.buses.cybergear import protocol as P
+py, chan, log = sys.executable, "239.74.163.2", sys.argv[1]
+emu = subprocess.Popen([py, "-m", "sparc_quad", "motors", "emulate", "--interface", "udp_multicast",
+                        "--channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True)
+emu.stdout.readline()
+sbus = can.Bus(interface="udp_multicast", channel=chan)
+sn = Sniffer()
+nt = can.Notifier(sbus, [sn], timeout=0.05)
+node = subprocess.Popen([py, "-m", "sparc_quad", "spine-node", "--motors", "can", "--can-interface",
+                         "udp_multicast", "--can-channel", chan, "--lcm-url", "memq://", "--no-heartbeat",
+                         "--can-log", log], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+deadline = time.monotonic() + 60
+while time.monotonic() < deadline and len(sn.of_type(P.CommType.OPERATION_CONTROL)) < 300:
+    time.sleep(0.05)
+n0 = len(sn.frames)
+node.send_signal(signal.SIGTERM)
+out, err = node.communicate(timeout=60)
+time.sleep(0.3)
+res = {"rc": node.returncode, "summary": out.strip().splitlines()[-1] if out.strip() else "",
+       "err": err[-1500:],
+       "types": sorted({P.split_id(m.arbitration_id)[0] for m in sn.frames[:n0]}),
+       "stops_after": {i: sum(1 for m in sn.frames[n0:] if P.split_id(m.arbitration_id)[0] == 4
+                              and m.arbitration_id & 0xFF == i) for i in (1, 2, 3)}}
+emu.send_signal(signal.SIGTERM)
+emu.communicate(timeout=30)
+nt.stop()
+sbus.shutdown()
+print(json.dumps(res))
+"""
+
+
+@pytest.mark.netns
+def test_spine_node_motors_can_cli_sigterm(tmp_path):
+    """`sparc-quad spine-node --motors can` across processes on udp_multicast: handshake, control frames,
+    SIGTERM ends in stop frames to every motor; the session log is written."""
+    import json
+    import os
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import can
+
+    if shutil.which("unshare") is None or subprocess.run(["unshare", "-rn", "true"]).returncode != 0:
+        pytest.skip("cannot make a network namespace")
+    root = Path(__file__).resolve().parents[1]
+    script, log = tmp_path / "node_cli.py", tmp_path / "session.blf"
+    script.write_text(NODE_CLI)
+    proc = subprocess.run(["unshare", "-rn", sys.executable, str(script), str(log)], cwd=root,
+                          env=dict(os.environ, PYTHONPATH=str(root)), capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert res["rc"] == 0, res["err"]
+    assert {0, 1, 2, 3, 4, 18} <= set(res["types"])  # get id, control, feedback, enable, stop, run_mode
+    assert all(n >= 1 for n in res["stops_after"].values()), res
+    assert json.loads(res["summary"])["ticks"] > 0
+    assert sum(1 for _ in can.LogReader(str(log))) > 300
