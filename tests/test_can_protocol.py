@@ -172,3 +172,27 @@ def test_bus_load_warns(caplog):
     with caplog.at_level("WARNING"):
         bus_load(3, 1000.0)
     assert "exceeds 80 %" in caplog.text and "833 Hz" in caplog.text
+
+
+class _NullBus(can.BusABC):
+    def __init__(self) -> None:
+        super().__init__(channel="null")
+        self.sent: list[can.Message] = []
+
+    def send(self, msg, timeout=None):
+        self.sent.append(msg)
+
+    def _recv_internal(self, timeout):
+        return None, False
+
+
+@settings(max_examples=300, deadline=None)
+@given(_frames())
+def test_fuzz_emulator_never_raises_and_answers_with_valid_frames(msg):
+    from sparc_quad.sim.cybergear_emulator import CyberGearEmulator
+    bus = _NullBus()
+    emu = CyberGearEmulator(bus, (1, 2, 3), start=False)
+    emu.handle(msg)
+    for reply in bus.sent:  # whatever it answers decodes as a motor -> host frame
+        assert isinstance(P.decode_from_motor(reply), P.Frame)
+    bus.shutdown()
