@@ -14,12 +14,15 @@ pytest.importorskip("spine_module.node")
 from sparc_quad.sim.bench_robot import run_inprocess, static_push_script, stiffness_from_states
 from sparc_quad.sim.cybergear_bench import node_stiffness, run_node_over_can
 from spine_module import params as P
+from spine_module.buses.cybergear import load_config
 from spine_module.messages import Fault, Mode
 
 
-def test_node_static_stiffness_over_can():
+@pytest.mark.parametrize("torque_mode", ["operation", "current"])
+def test_node_static_stiffness_over_can(torque_mode):
     k = 500.0
-    run = run_node_over_can(static_push_script(k, cycles=1.0))
+    cfg = load_config().with_(torque_mode=torque_mode)
+    run = run_node_over_can(static_push_script(k, cycles=1.0), config=cfg)
     assert run.emulator_rejected == 0 and run.bus_stats["send_errors"] == 0
     assert all(s.mode == Mode.IMPEDANCE for s in run.states[100:])
     k_hat, r2, n = node_stiffness(run, P.X_EQUILIBRIUM[0], skip_s=1.0)

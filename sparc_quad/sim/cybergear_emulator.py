@@ -281,7 +281,7 @@ class CyberGearEmulator:
             if spec.lo is not None and spec.hi is not None:
                 value = type(value)(min(max(value, spec.lo), spec.hi))
             m.params[spec.name] = value
-        if spec.name == "iq_ref":
+        if spec.name == "iq_ref" and m.mode == P.MotorMode.RUN:  # a running motor's per-cycle command
             self._commanded(m)
         else:
             self.torques()
