@@ -151,3 +151,13 @@ def test_stats_and_emulated_speed_and_position_modes():
     m.params.update(run_mode=P.RunMode.POSITION, loc_ref=1.0, limit_spd=0.5)
     assert m.torque(0.0, 0.0) == pytest.approx(0.5 * KT_NM_PER_A)  # speed-limited approach
     assert m.torque(1.0, 0.0) == 0.0
+
+
+def test_blf_log_survives_channel_names_with_large_numbers(tmp_path):
+    from spine_module.buses.cybergear.driver import _SessionLog
+    log = _SessionLog(tmp_path / "x.blf")
+    log.on_message_received(can.Message(arbitration_id=P.make_id(2, 0x8001, 0xFD), data=bytes(8),
+                                        channel="test-8a93b71234"))
+    log.stop()
+    (frame,) = list(can.LogReader(str(tmp_path / "x.blf")))
+    assert frame.arbitration_id == P.make_id(2, 0x8001, 0xFD)

@@ -40,6 +40,7 @@ import can
 
 from spine_module.buses.cybergear import protocol as P
 from spine_module.buses.cybergear.config import KT_NM_PER_A
+from spine_module.buses.cybergear.driver import loggable
 
 log = logging.getLogger(__name__)
 
@@ -190,7 +191,7 @@ class CyberGearEmulator:
             self.bus.send(msg, timeout=0.1)
             self.sent += 1
             if self.log is not None:
-                self.log.on_message_received(msg)
+                self.log.on_message_received(loggable(msg))
         except can.CanError as e:  # a real motor's transmit failures are invisible to it too
             log.warning("emulator send failed: %s", e)
 
@@ -208,7 +209,7 @@ class CyberGearEmulator:
     def _on_message(self, msg: can.Message) -> None:
         with self.lock:
             if self.log is not None:
-                self.log.on_message_received(msg)
+                self.log.on_message_received(loggable(msg))
             self.handle(msg)
 
     def handle(self, msg: can.Message) -> None:

@@ -442,6 +442,17 @@ class _Listener(can.Listener):
         pass
 
 
+def loggable(msg: can.Message) -> can.Message:
+    """`msg`, or a copy without its channel when the channel's trailing number does not fit the 16-bit
+    channel field of a .blf file (python-can reads "test-8a93b71234" as channel 71234)."""
+    ch = can.util.channel2int(msg.channel) if msg.channel is not None else None
+    if ch is None or 0 <= ch < 0xFFFF:
+        return msg
+    return can.Message(timestamp=msg.timestamp, arbitration_id=msg.arbitration_id, data=msg.data,
+                       is_extended_id=msg.is_extended_id, is_remote_frame=msg.is_remote_frame,
+                       is_error_frame=msg.is_error_frame, dlc=msg.dlc, is_rx=msg.is_rx, check=False)
+
+
 class _SessionLog(can.Listener):
     """A python-can Logger (.asc/.blf/.log/.csv by suffix) written from two threads: received frames from
     the notifier, sent frames from the control loop."""
@@ -454,7 +465,7 @@ class _SessionLog(can.Listener):
     def on_message_received(self, msg: can.Message) -> None:
         with self._lock:
             if self._open:
-                self._writer.on_message_received(msg)
+                self._writer.on_message_received(loggable(msg))
 
     def stop(self) -> None:
         with self._lock:

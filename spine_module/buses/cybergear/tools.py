@@ -15,6 +15,7 @@ from pathlib import Path
 import can
 
 from spine_module.buses.cybergear import protocol as P
+from spine_module.buses.cybergear.driver import loggable
 
 STATUS_PARAMS = ("run_mode", "mechPos", "mechVel", "VBUS", "limit_torque", "limit_cur", "iqf")
 
@@ -43,7 +44,7 @@ class Session:
     def _log(self, msg: can.Message) -> None:
         if self.log is not None:
             with self._log_lock:
-                self.log.on_message_received(msg)
+                self.log.on_message_received(loggable(msg))
 
     def _on_message(self, msg: can.Message) -> None:
         self._log(msg)
