@@ -28,8 +28,10 @@ test-slow: install
 lint: install
 	$(BIN)/ruff check .
 
+# every performance script prints ratios measured in the same run and writes out/bench/<name>.json
+BENCHES := control_step lcm_loop can_loop
 bench: install
-	$(BIN)/python bench/control_step.py --json out/bench/control_step.json
+	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json || exit 1; done
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache
