@@ -150,6 +150,8 @@ class Term:
 
     @property
     def n_params(self) -> int:
+        if self.name == "encoder_offset":  # theta is the linearisation point, tied to the amplitude
+            return 1
         return (0 if self.fixed else 1) + (1 if self.theta is not None else 0)
 
 
@@ -198,8 +200,14 @@ class Library:
             col = self._put(b, v, -np.ones(b.n))
         elif name == "encoder_offset":
             q = b.q_f(self.nominal)
-            d = rb.rnea_dq(self.models[bi], q, b.dq_f, b.ddq_f)
-            col = -d[:, :, v]
+            if term.theta:  # secant through the estimate: exact at offset = theta
+                qs = q.copy()
+                qs[:, v] -= term.theta
+                m = self.models[bi]
+                col = (Robot.rnea(m, qs, b.dq_f, b.ddq_f) - Robot.rnea(m, q, b.dq_f, b.ddq_f)) / term.theta
+            else:
+                d = rb.rnea_dq(self.models[bi], q, b.dq_f, b.ddq_f)
+                col = -d[:, :, v]
         elif name == "payload_mass":
             col = rb.point_mass_column(self.models[bi], term.joint, term.xyz, b.q_f(self.nominal),
                                        b.dq_f, b.ddq_f)
@@ -290,7 +298,8 @@ class Selector:
             return [s * dt for s in range(1, int(round(0.05 / dt)) + 1)]
         tau = np.concatenate([np.abs(lib.blocks[b].trial.tau_cmd[:, ja]) for b in self.train])
         if name == "torque_saturation":
-            return list(np.percentile(tau, [50, 60, 70, 75, 80, 85, 88, 90, 92, 94, 96, 97, 98, 99, 99.5]))
+            pct = [*range(2, 90, 4), 90, 92, 94, 96, 97, 98, 99, 99.5, 99.8, 99.9, 99.95]
+            return list(np.unique(np.percentile(tau, pct)))
         if name == "torque_deadband":
             top = float(np.percentile(tau, 50))
             return list(np.linspace(top / 25, top, 25))
@@ -301,6 +310,16 @@ class Selector:
         if name == "payload_mass":
             t = Term(name, joint, link=self.robot.child_link(joint), xyz=self.robot.link_com(joint))
             return t, self.fit([*selected, t])
+        if name == "encoder_offset":  # Gauss-Newton: tangent, then secants through the estimate
+            t = Term(name, joint)
+            fit = self.fit([*selected, t])
+            for _ in range(2):
+                delta = float(fit.beta[sum(not x.fixed for x in fit.terms) - 1])
+                if not (np.isfinite(delta) and 1e-6 < abs(delta) < 0.5):
+                    break
+                t = Term(name, joint, theta=delta)
+                fit = self.fit([*selected, t])
+            return t, fit
         if grid is None:
             t = Term(name, joint)
             return t, self.fit([*selected, t])
@@ -308,9 +327,11 @@ class Selector:
         bics = np.array([f.bic for f in fits])
         i = int(np.argmin(bics))
         theta, best = grid[i], fits[i]
-        if name != "time_delay" and 0 < i < len(grid) - 1:
+        if name != "time_delay":
+            lo_b = grid[i - 1] if i > 0 else 0.5 * grid[0]
+            hi_b = grid[i + 1] if i < len(grid) - 1 else grid[-1] + 0.5 * (grid[-1] - grid[-2])
             res = minimize_scalar(lambda g: self.fit([*selected, Term(name, joint, theta=g)]).bic,
-                                  bounds=(grid[i - 1], grid[i + 1]), method="bounded",
+                                  bounds=(lo_b, hi_b), method="bounded",
                                   options={"xatol": 1e-4 * abs(grid[i])})
             if res.fun < best.bic:
                 theta = float(res.x)

@@ -95,7 +95,7 @@ def robot_for(csv_path: Path, meta: dict) -> Robot:
     if not urdf.is_absolute():
         urdf = side.parent / urdf
     try:
-        return Robot(urdf, meta["actuated_joints"], meta.get("fixed_joints", {}), meta["gravity"],
+        return Robot(urdf.resolve(), meta["actuated_joints"], meta.get("fixed_joints", {}), meta["gravity"],
                      meta.get("ee_frame"))
     except RobotError as exc:
         raise TrialError(side, str(exc)) from exc
