@@ -50,7 +50,8 @@ def check_named(rep: dict, hidden) -> list[str]:
     for h in hidden:
         match = [e for e in rep["effects"] if e["name"] == h.name and e["joint"] == h.joint]
         if not match:
-            errs.append(f"{h.name}@{h.joint} not named; named {[(e['name'], e['joint']) for e in rep['effects']]}"
+            named = [(e["name"], e["joint"]) for e in rep["effects"]]
+            errs.append(f"{h.name}@{h.joint} not named; named {named}"
                         f" ambiguous {[(a['best']['name'], a['alternatives']) for a in rep['ambiguous']]}")
             continue
         errs += param_errors(match[0], h)

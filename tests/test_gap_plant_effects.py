@@ -21,7 +21,8 @@ def test_names_are_the_eleven():
 
 def test_round_trip(tmp_path):
     pe = PlantEffects(J, [Effect("coulomb_friction", "q3", {"tau_c_nm": 0.1}),
-                          Effect("payload_mass", "q3", {"mass_kg": 0.2, "xyz_m": [0.1, 0, 0]}, "front_spine")])
+                          Effect("payload_mass", "q3", {"mass_kg": 0.2, "xyz_m": [0.1, 0, 0]},
+                                 "front_spine")])
     pe.save(tmp_path / "p.json")
     back = PlantEffects.load(tmp_path / "p.json")
     assert back.to_dict() == pe.to_dict()

@@ -56,11 +56,13 @@ CHAIN = """<?xml version="1.0"?>
   <link name="l0"><inertial><origin xyz="0 0 0"/><mass value="0.2"/>
     <inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial></link>
   <joint name="shoulder" type="revolute"><parent link="l0"/><child link="upper"/>
-    <origin xyz="0 0 0.05"/><axis xyz="1 0 0"/><limit lower="-1.2" upper="1.2" effort="10" velocity="20"/></joint>
+    <origin xyz="0 0 0.05"/><axis xyz="1 0 0"/>
+    <limit lower="-1.2" upper="1.2" effort="10" velocity="20"/></joint>
   <link name="upper"><inertial><origin xyz="0 0.1 0"/><mass value="0.5"/>
     <inertia ixx="2e-3" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="2e-3"/></inertial></link>
   <joint name="elbow" type="revolute"><parent link="upper"/><child link="fore"/>
-    <origin xyz="0 0.2 0"/><axis xyz="1 0 0"/><limit lower="-1.2" upper="1.2" effort="10" velocity="20"/></joint>
+    <origin xyz="0 0.2 0"/><axis xyz="1 0 0"/>
+    <limit lower="-1.2" upper="1.2" effort="10" velocity="20"/></joint>
   <link name="fore"><inertial><origin xyz="0 0.08 0"/><mass value="0.3"/>
     <inertia ixx="8e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="8e-4"/></inertial></link>
 </robot>

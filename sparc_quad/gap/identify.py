@@ -9,7 +9,8 @@ the commanded torque) computed at full rate, filtered by the same F and decimate
 (Stribeck velocity, delay, saturation limit, deadband width) is profiled on a grid and refined.
 Selection: forward stepwise on the training blocks, BIC on decimated samples (one sample per 1/(2 f_c)),
 each joint whitened by its noise floor; a candidate passes when dBIC <= -BIC_MIN, it improves the
-held-out residual by >= HELDOUT_MIN_PCT, and its parameters are physically plausible. Passing candidates
+held-out residual by >= HELDOUT_MIN_PCT, its fitted contribution is at least MIN_CONTRIBUTION noise
+floors RMS on its most affected joint, and its parameters are physically plausible. Passing candidates
 of different name or joint within AMBIGUOUS_BIC of the best are reported as ambiguous.
 """
 
@@ -30,6 +31,7 @@ from sparc_quad.sim.plant_effects import EFFECT_NAMES, Effect, PlantEffects
 BIC_MIN = 10.0
 HELDOUT_MIN_PCT = 1.0
 AMBIGUOUS_BIC = 6.0
+MIN_CONTRIBUTION = 0.3  # an effect smaller than this x the noise floor changes the gap by < 5 %: not named
 MAX_EFFECTS = 6
 EDGE_S = 0.15  # filter edge margin dropped at each end of a block
 
@@ -50,7 +52,7 @@ class Block:
         rate = self.trial.rate_hz
         self.sos = butter(4, self.cutoff_hz, fs=rate, output="sos")
         n = len(self.trial.t)
-        edge = int(round(EDGE_S * rate))
+        edge = round(EDGE_S * rate)
         idx = np.arange(0, n, self.step)
         self.idx = idx[(idx >= edge) & (idx < n - edge - 1)]
         dq = self.trial.dq
@@ -105,7 +107,7 @@ def noise_floor(blocks: list[Block], residuals: list[np.ndarray]) -> tuple[np.nd
         period = b.trial.meta.get("period_s")
         if not period:
             continue
-        P = int(round(period * b.trial.rate_hz))
+        P = round(period * b.trial.rate_hz)
         if P % b.step:
             continue
         phase = b.idx % P
@@ -212,7 +214,7 @@ class Library:
             col = rb.point_mass_column(self.models[bi], term.joint, term.xyz, b.q_f(self.nominal),
                                        b.dq_f, b.ddq_f)
         elif name == "time_delay":
-            s = int(round(term.theta / b.trial.dt))
+            s = round(term.theta / b.trial.dt)
             shifted = np.concatenate([np.full(s, tau[0]), tau[:-s]]) if s > 0 else tau
             col = self._put(b, v, b.F(tau - shifted))
         elif name == "torque_saturation":
@@ -265,7 +267,7 @@ class Selector:
         return y, X, lin
 
     def fit(self, terms: list[Term], with_se: bool = False) -> Fit:
-        y, X, lin = self._design(terms, self.train)
+        y, X, _lin = self._design(terms, self.train)
         n = len(y)
         k = sum(t.n_params for t in terms)
         if X.shape[1]:
@@ -285,6 +287,15 @@ class Selector:
             ho = float(np.mean((yt - Xt @ beta) ** 2)) if Xt.shape[1] else float(np.mean(yt**2))
         return Fit(terms, bic, rss, n, beta, se, ho)
 
+    def contribution(self, fit: Fit) -> float:
+        """RMS of the last term's fitted contribution, in noise floors, on its most affected joint."""
+        t = fit.terms[-1]
+        blocks = self.test or self.train
+        cols = np.vstack([self.lib.column(t, bi) for bi in blocks]) * self.w
+        if not t.fixed:
+            cols = cols * fit.beta[sum(not x.fixed for x in fit.terms) - 1]
+        return float(np.max(np.sqrt(np.mean(cols**2, axis=0))))
+
     # ---- profiling grids -----------------------------------------------------------------------------
     def grid(self, name: str, joint: str) -> list[float] | None:
         lib = self.lib
@@ -295,7 +306,7 @@ class Selector:
             return list(np.geomspace(0.01, hi, 14))
         if name == "time_delay":
             dt = lib.blocks[0].trial.dt
-            return [s * dt for s in range(1, int(round(0.05 / dt)) + 1)]
+            return [s * dt for s in range(1, round(0.05 / dt) + 1)]
         tau = np.concatenate([np.abs(lib.blocks[b].trial.tau_cmd[:, ja]) for b in self.train])
         if name == "torque_saturation":
             pct = [*range(2, 90, 4), 90, 92, 94, 96, 97, 98, 99, 99.5, 99.8, 99.9, 99.95]
@@ -388,8 +399,10 @@ def plausible(t: Term, robot: Robot, tau_peak: float) -> str | None:
     p, se = term_params(t)
     limit = float(robot.model.effortLimit[robot.act_idx[robot.actuated.index(t.joint)]]) or 1e3
     checks = {
-        "coulomb_friction": (0 < p.get("tau_c_nm", 0) < 0.5 * limit, "Coulomb friction must be in (0, limit/2)"),
-        "viscous_friction": (0 < p.get("b_nm_s_rad", 0) < 10.0, "viscous coefficient must be in (0, 10) N*m*s/rad"),
+        "coulomb_friction": (0 < p.get("tau_c_nm", 0) < 0.5 * limit,
+                             "Coulomb friction must be in (0, limit/2)"),
+        "viscous_friction": (0 < p.get("b_nm_s_rad", 0) < 10.0,
+                             "viscous coefficient must be in (0, 10) N*m*s/rad"),
         "stribeck_friction": (0 < p.get("tau_s_nm", 0) < 0.5 * limit and 1e-3 <= p.get("dq_s_rad_s", 0) <= 5,
                               "Stribeck excess must be positive, velocity in [1e-3, 5] rad/s"),
         "rotor_inertia": (0 < p.get("inertia_kg_m2", 0) < 1.0, "armature must be positive"),
@@ -399,7 +412,8 @@ def plausible(t: Term, robot: Robot, tau_peak: float) -> str | None:
         "payload_mass": (0 < p.get("mass_kg", 0) < 20.0, "payload mass must be positive"),
         "encoder_offset": (abs(p.get("offset_rad", 0)) < 0.5, "encoder offset beyond 0.5 rad"),
         "torque_saturation": (0 < p.get("limit_nm", 0) < tau_peak, "limit must lie below the peak command"),
-        "torque_deadband": (0 < p.get("width_nm", 0) < 0.5 * tau_peak, "deadband must be below half the peak"),
+        "torque_deadband": (0 < p.get("width_nm", 0) < 0.5 * tau_peak,
+                            "deadband must be below half the peak"),
     }
     ok, why = checks[t.name]
     if not ok:
@@ -426,8 +440,9 @@ def select(sel: Selector, max_effects: int = MAX_EFFECTS) -> tuple[list[StepReco
     cur = sel.fit([])
     steps: list[StepRecord] = []
     log: list[dict] = []
-    tau_peak = {j: float(np.max(np.abs(np.concatenate(
-        [sel.lib.blocks[b].trial.tau_cmd[:, robot.actuated.index(j)] for b in sel.train])))) for j in robot.actuated}
+    tau_peak = {}
+    for ja, j in enumerate(robot.actuated):
+        tau_peak[j] = max(float(np.max(np.abs(sel.lib.blocks[b].trial.tau_cmd[:, ja]))) for b in sel.train)
     while len(steps) < max_effects:
         cands = []
         taken = {t.key for t in selected}
@@ -443,6 +458,9 @@ def select(sel: Selector, max_effects: int = MAX_EFFECTS) -> tuple[list[StepReco
                 dbic = fit.bic - cur.bic
                 imp = 100.0 * (1.0 - fit.heldout_mse / cur.heldout_mse) if sel.test else float("nan")
                 why = plausible(term, robot, tau_peak[joint])
+                size = sel.contribution(fit)
+                if size < MIN_CONTRIBUTION:
+                    why = why or f"contribution {size:.2f} x noise floor < {MIN_CONTRIBUTION}"
                 if dbic > -BIC_MIN:
                     why = why or f"dBIC {dbic:.1f} > -{BIC_MIN}"
                 elif sel.test and not imp >= HELDOUT_MIN_PCT:

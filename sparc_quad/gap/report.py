@@ -7,10 +7,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from sparc_quad.gap.workflow import REGIMES  # noqa: E402
+from sparc_quad.gap.workflow import REGIMES
 
 
 def _fmt(x: float) -> str:
@@ -77,7 +77,7 @@ def plot_overlay_residual(path: Path, robot, ho_blocks, res_b, res_a, floor) -> 
 def plot_overlay_replay(path: Path, robot, ho_blocks, rep_b, rep_a) -> None:
     fig, axes = plt.subplots(robot.nv, 1, figsize=(9, 1.8 * robot.nv + 0.6), squeeze=False)
     tr = ho_blocks[0].trial
-    n = min(len(tr.t), int(round(2.0 * tr.rate_hz)))
+    n = min(len(tr.t), round(2.0 * tr.rate_hz))
     for v, j in enumerate(robot.joints):
         ax = axes[v, 0]
         ax.plot(tr.t[:n], rep_b[0]["q_meas"][:n, v], "k", lw=1.0, label="measured")
@@ -92,11 +92,12 @@ def plot_overlay_replay(path: Path, robot, ho_blocks, rep_b, rep_a) -> None:
 
 
 def markdown(report: dict, robot) -> str:
-    L = [f"# Sim-vs-measured gap report\n", f"**Verdict: `{report['verdict']}`**\n",
+    L = ["# Sim-vs-measured gap report\n", f"**Verdict: `{report['verdict']}`**\n",
          f"Robot `{report['robot']['urdf']}`, joints {', '.join(robot.joints)}; "
          f"noise floor by {report['noise_floor_method']}.\n",
          "## Gap (held-out data)\n",
-         "| joint | noise floor N*m | ID residual before | after | after / floor | replay before rad | after |",
+         "| joint | noise floor N*m | ID residual before | after | after / floor "
+         "| replay before rad | after |",
          "|---|---|---|---|---|---|---|"]
     gb, ga = report["gap_before"], report["gap_after"]
     for j in robot.joints:
@@ -119,7 +120,8 @@ def markdown(report: dict, robot) -> str:
             alts = "; ".join(f"{x['name']} on {x['joint']} (dBIC {x['delta_bic_vs_best']:+.1f})"
                              for x in a["alternatives"])
             L.append(f"- {a['best']['name']} on {a['best']['joint']} vs {alts}")
-    L += ["", "## Where the nominal model disagrees\n", "| joint | regime | RMS N*m | / floor | share of samples |",
+    L += ["", "## Where the nominal model disagrees\n",
+          "| joint | regime | RMS N*m | / floor | share of samples |",
           "|---|---|---|---|---|"]
     for r in report["localisation"]["regimes"][:10]:
         L.append(f"| {r['joint']} | {r['regime']} | {_fmt(r['rms_nm'])} | {_fmt(r['rms_over_floor'])} | "
@@ -128,7 +130,8 @@ def markdown(report: dict, robot) -> str:
                                            f"({s['rms_over_floor']:.1f}x floor)"
                                            for s in report["localisation"]["spans"][:5]), ""]
     L += ["![residual by regime](residual_by_regime.png)", "", "![residual](residual_time.png)", "",
-          "![before/after residual](overlay_residual.png)", "", "![before/after replay](overlay_replay.png)", "",
+          "![before/after residual](overlay_residual.png)", "",
+          "![before/after replay](overlay_replay.png)", "",
           "The plant model with the named effects is `plant.json` (load with `--plant plant.json`)."]
     return "\n".join(L) + "\n"
 

@@ -131,7 +131,7 @@ def simulate(robot: Robot, true_plant: PlantEffects, nominal_plant: PlantEffects
     if len(robot.actuated) != robot.nv:
         raise ValueError("synth needs every non-fixed joint actuated")
     dt = 1.0 / rate_hz
-    n_steps = int(round(duration_s * rate_hz))
+    n_steps = round(duration_s * rate_hz)
     t = np.arange(n_steps) * dt
     q_d, dq_d, ddq_d = ex(t)
     nom_model = robot.plant_model(nominal_plant)
@@ -144,7 +144,9 @@ def simulate(robot: Robot, true_plant: PlantEffects, nominal_plant: PlantEffects
     limit = np.array([robot.model.effortLimit[i] for i in robot.act_idx])
     limit = np.where(limit > 0, limit, np.inf)
     lsb_q, lsb_dq = (P.SENSORS.position_lsb_rad, P.SENSORS.velocity_lsb_rad_s) if quantise else (0, 0)
-    quant = (lambda x, lsb: np.round(x / lsb) * lsb if lsb else x)
+    def quant(x, lsb):
+        return np.round(x / lsb) * lsb if lsb else x
+
     q, dq = q_d[0].copy(), dq_d[0].copy()
     Q, DQ, TAU = (np.empty((n_steps, robot.nv)) for _ in range(3))
     noise = rng.normal(scale=torque_noise_nm, size=(n_steps, robot.nv))

@@ -65,7 +65,9 @@ class Trial:
         return None if p is None else (self.path.parent / p)
 
     def slice(self, a: int, b: int, suffix: str) -> Trial:
-        cut = (lambda x: None if x is None else x[a:b])
+        def cut(x):
+            return None if x is None else x[a:b]
+
         return Trial(self.path.with_name(f"{self.path.stem}{suffix}.csv"), self.meta, self.t[a:b],
                      self.q[a:b], self.dq[a:b], self.tau_cmd[a:b], cut(self.tau_meas), cut(self.f_ext),
                      self.robot)
@@ -152,7 +154,9 @@ def load_trial(path: str | Path, robot: Robot | None = None) -> Trial:
     bad = np.nonzero(np.diff(t) <= 0)[0]
     if bad.size:
         raise TrialError(path, "time not strictly increasing", row=int(bad[0]) + 2, column="t")
-    get = (lambda names: data[:, [cols[n] for n in names]])
+    def get(names):
+        return data[:, [cols[n] for n in names]]
+
     tau_meas = None
     if all(f"tau_meas_{j}" in cols for j in robot.actuated):
         tau_meas = get([f"tau_meas_{j}" for j in robot.actuated])
@@ -221,7 +225,8 @@ def load_lcm_log(path: Path, decoder=None) -> Trial:
         try:
             rec = decoder(event)
         except Exception as exc:
-            raise TrialError(path, f"event on channel {event.channel!r} does not decode: {exc}", row=i) from exc
+            raise TrialError(path, f"event on channel {event.channel!r} does not decode: {exc}",
+                             row=i) from exc
         if rec is not None:
             rows.append(rec)
     if not rows:

@@ -47,17 +47,17 @@ def load_trials(paths: Sequence[str | Path]) -> list[Trial]:
 def split(trials: list[Trial], heldout_fraction: float = 1 / 3) -> tuple[list[Trial], list[bool]]:
     """Blocks and a held-out flag per block: whole trials when there are >= 2, else contiguous blocks."""
     if len(trials) >= 2:
-        n_test = max(1, int(round(len(trials) * heldout_fraction)))
+        n_test = max(1, round(len(trials) * heldout_fraction))
         flags = [False] * len(trials)
         for i in range(n_test):
             flags[len(trials) - 1 - i * max(1, len(trials) // n_test)] = True
         return trials, flags
     tr = trials[0]
     n = len(tr.t)
-    cut = int(round(n * (1 - heldout_fraction)))
+    cut = round(n * (1 - heldout_fraction))
     period = tr.meta.get("period_s")
     if period:
-        P = int(round(period * tr.rate_hz))
+        P = round(period * tr.rate_hz)
         if P > 0 and cut // P >= 2 and (n - (cut // P) * P) // P >= 2:
             cut = (cut // P) * P
     return [tr.slice(0, cut, "_train"), tr.slice(cut, n, "_heldout")], [False, True]
@@ -67,7 +67,8 @@ def localise(blocks: list[I.Block], res: list[np.ndarray], floor: np.ndarray, ro
     """Rank joints, regimes and time spans by residual size."""
     allr = np.vstack(res)
     rms = np.sqrt(np.mean(allr**2, axis=0))
-    joints = sorted(({"joint": j, "rms_nm": float(rms[v]), "rms_over_floor": float(rms[v] / max(floor[v], 1e-12))}
+    joints = sorted(({"joint": j, "rms_nm": float(rms[v]),
+                      "rms_over_floor": float(rms[v] / max(floor[v], 1e-12))}
                      for j, v in zip(robot.joints, range(robot.nv), strict=True)),
                     key=lambda d: -d["rms_over_floor"])
     masks: dict[str, list[np.ndarray]] = {k: [] for k in REGIMES}
@@ -85,7 +86,7 @@ def localise(blocks: list[I.Block], res: list[np.ndarray], floor: np.ndarray, ro
         masks["velocity_reversal"].append(rev)
         masks["high_acceleration"].append(np.abs(ddq) > np.percentile(np.abs(ddq), 80, axis=0))
         masks["high_torque"].append(np.abs(tau) > np.percentile(np.abs(tau), 80, axis=0))
-        k = max(1, int(round(1.0 / (b.step * b.trial.dt))))
+        k = max(1, round(1.0 / (b.step * b.trial.dt)))
         kern = np.ones(k) / k
         slow.append(np.column_stack([np.convolve(r[:, v], kern, mode="same") for v in range(robot.nv)]))
     regimes = []
@@ -106,7 +107,7 @@ def localise(blocks: list[I.Block], res: list[np.ndarray], floor: np.ndarray, ro
     spans = []
     for b, r in zip(blocks, res, strict=True):
         t = b.trial.t[b.idx]
-        k = max(1, int(round(0.5 / (b.step * b.trial.dt))))
+        k = max(1, round(0.5 / (b.step * b.trial.dt)))
         for s in range(0, len(t) - k + 1, k):
             seg = r[s:s + k]
             z = np.sqrt(np.mean(seg**2, axis=0)) / np.maximum(floor, 1e-12)
@@ -135,10 +136,10 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
         raise TrialError(plant_file, f"plant joints {nominal.joints} != actuated joints {robot.actuated}")
     parts, heldout = split(trials)
     rate = trials[0].rate_hz
-    step = max(1, int(round(rate / (2 * cutoff_hz))))
+    step = max(1, round(rate / (2 * cutoff_hz)))
     period = trials[0].meta.get("period_s")
     if period:  # make the decimation step divide the period (repeated-segment noise floor)
-        P = int(round(period * rate))
+        P = round(period * rate)
         while step > 1 and P % step:
             step -= 1
     blocks = [I.Block(p, robot, cutoff_hz, step) for p in parts]
@@ -149,13 +150,14 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
     loc = localise(blocks, res0, floor, robot)
     lib = I.Library(blocks, nominal)
     sel = I.Selector(lib, train, test, res0, floor)
-    steps, final, sel_log = I.select(sel, max_effects)
+    steps, _final, sel_log = I.select(sel, max_effects)
     effects, ambiguous, added = [], [], []
     for st in steps:
         t = st.term
         params, se = I.term_params(t)
         entry = {"name": t.name, "joint": t.joint, "params": params, "std_err": se,
-                 "delta_bic": round(st.delta_bic, 3), "heldout_improvement_pct": round(st.heldout_improvement_pct, 3)}
+                 "delta_bic": round(st.delta_bic, 3),
+                 "heldout_improvement_pct": round(st.heldout_improvement_pct, 3)}
         if t.link:
             entry["link"] = t.link
         eff = I.term_effect(t)
@@ -198,15 +200,19 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
         "noise_floor_heldout_nominal_model": _per_joint(robot, fb),
         "noise_floor_heldout_final_model": _per_joint(robot, fa),
         "noise_floor_all_blocks_nominal_model": _per_joint(robot, floor_all),
-        "gap_before": {"id_residual_rms_nm": _per_joint(robot, gap_b), "replay_rms_rad": _per_joint(robot, rb)},
-        "gap_after": {"id_residual_rms_nm": _per_joint(robot, gap_a), "replay_rms_rad": _per_joint(robot, ra)},
+        "gap_before": {"id_residual_rms_nm": _per_joint(robot, gap_b),
+                       "replay_rms_rad": _per_joint(robot, rb)},
+        "gap_after": {"id_residual_rms_nm": _per_joint(robot, gap_a),
+                      "replay_rms_rad": _per_joint(robot, ra)},
         "gap_after_over_floor": _per_joint(robot, gap_a / np.maximum(floor, 1e-12)),
         "gap_closed_factor": GAP_CLOSED_FACTOR,
         "localisation": loc,
         "selection_log": sel_log,
         "settings": {"cutoff_hz": cutoff_hz, "decimation_step": step, "decimated_rate_hz": rate / step,
                      "window_s": window_s, "bic_min": I.BIC_MIN, "heldout_min_pct": I.HELDOUT_MIN_PCT,
-                     "ambiguous_bic": I.AMBIGUOUS_BIC, "nominal_plant": str(plant_file) if plant_file else None},
+                     "ambiguous_bic": I.AMBIGUOUS_BIC,
+                     "min_contribution_over_floor": I.MIN_CONTRIBUTION,
+                     "nominal_plant": str(plant_file) if plant_file else None},
         "trials": [{"block": b.trial.name, "heldout": h, "samples": len(b.trial.t), "decimated": b.n}
                    for b, h in zip(blocks, heldout, strict=True)],
         "robot": {"urdf": robot.urdf, "joints": robot.joints, "actuated": robot.actuated},

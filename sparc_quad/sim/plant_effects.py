@@ -207,7 +207,7 @@ class PlantEffects:
         """Whole-log version of `applied_torque`: tau_cmd (N, n) sampled every dt, zeros before t0."""
         tau = np.array(tau_cmd, dtype=float)
         for j in range(tau.shape[1]):
-            s = int(round(self.delay[j] / dt))
+            s = round(self.delay[j] / dt)
             if s > 0:
                 tau[s:, j] = tau_cmd[:-s, j]
                 tau[:s, j] = 0.0
