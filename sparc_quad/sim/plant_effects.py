@@ -222,6 +222,11 @@ class PlantEffects:
             mag[..., j] += tau_s * np.exp(-((dq[..., j] / dq_s) ** 2))
         return -(mag * sgn + self.viscous * dq)
 
+    def friction_slope(self, dq: np.ndarray, h: float = 1e-4) -> np.ndarray:
+        """-d friction_torque / d dq (>= 0 where dissipative): for linearly-implicit integration."""
+        dq = np.asarray(dq, dtype=float)
+        return -(self.friction_torque(dq + h) - self.friction_torque(dq - h)) / (2 * h)
+
     def measured_q(self, q_true: np.ndarray) -> np.ndarray:
         return np.asarray(q_true, dtype=float) + self.enc_offset
 
