@@ -142,3 +142,17 @@ def test_pair_and_gap_over_seeds(tmp_path):
             fails.append((s, errs))
     print(f"\npair over 6 seeds: {6 - len(fails)}/6 ok; worst gap/floor {np.max(ratios):.3f}")
     assert not fails, fails
+
+
+def test_without_repeats_uses_high_frequency_floor(tmp_path):
+    res = synth(tmp_path / "trials", ["coulomb_friction:joint=q3"], seed=3, n_trials=3, periods=4,
+                period_s=1.5, amp_rad=0.4)
+    for p in res["trials"]:
+        side = p.with_suffix(".json")
+        meta = json.loads(side.read_text())
+        del meta["period_s"]
+        side.write_text(json.dumps(meta))
+    rep = run(res["trials"], tmp_path / "out", plots=False)
+    assert rep["noise_floor_method"] == "high_frequency_residual"
+    assert [(e["name"], e["joint"]) for e in rep["effects"]] == [("coulomb_friction", "q3")]
+    assert rep["verdict"] == "gap_closed"

@@ -124,7 +124,20 @@ def noise_floor(blocks: list[Block], residuals: list[np.ndarray]) -> tuple[np.nd
         return np.sqrt(per_sum / per_cnt), "repeated_segments"
     d2 = np.vstack([np.diff(r, n=2, axis=0) for r in residuals])
     mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) * 1.4826
-    return mad / math.sqrt(6.0), "high_frequency_residual"
+    # var(second difference) = sigma^2 (6 - 8 rho1 + 2 rho2), rho_k: the correlation the low-pass leaves
+    # between decimated samples of white noise (the residual noise of the synthetic bench matches it)
+    rho1, rho2 = filtered_white_correlation(blocks[0])
+    return mad / math.sqrt(6.0 - 8.0 * rho1 + 2.0 * rho2), "high_frequency_residual"
+
+
+def filtered_white_correlation(block: Block) -> tuple[float, float]:
+    n = 8 * block.step + int(4 * block.trial.rate_hz / block.cutoff_hz)
+    imp = np.zeros(2 * n + 1)
+    imp[n] = 1.0
+    h = sosfiltfilt(block.sos, imp)
+    def rho(lag):
+        return float(np.dot(h[:-lag], h[lag:]) / np.dot(h, h))
+    return rho(block.step), rho(2 * block.step)
 
 
 # ---- effect columns ------------------------------------------------------------------------------------
