@@ -31,6 +31,7 @@ from sparc_quad.sim.plant_effects import EFFECT_NAMES, Effect, PlantEffects
 BIC_MIN = 10.0
 HELDOUT_MIN_PCT = 1.0
 AMBIGUOUS_BIC = 6.0
+HELDOUT_TIE = 1.1  # held-out MSE ratio under which two training-tied candidates stay ambiguous
 MIN_CONTRIBUTION = 0.3  # an effect smaller than this x the noise floor changes the gap by < 5 %: not named
 MAX_EFFECTS = 6
 EDGE_S = 0.15  # filter edge margin dropped at each end of a block
@@ -59,7 +60,10 @@ class Block:
         ddq = np.vstack([np.diff(dq, axis=0) / self.trial.dt, np.zeros((1, dq.shape[1]))])
         self.dq_f = self.F(dq)
         self.ddq_f = self.F(ddq)
-        self.dq_act_raw = dq[:, self.robot.act_idx]
+        # friction acts at the step's midpoint velocity (see Robot.forward_step)
+        mid = 0.5 * (dq + np.vstack([dq[1:], dq[-1:]]))
+        self.dq_act_raw = mid[:, self.robot.act_idx]
+        self.dq_mid_f = self.F(mid)
         self._qcache: dict = {}
 
     def F(self, x: np.ndarray, decimate: bool = True) -> np.ndarray:
@@ -204,7 +208,7 @@ class Library:
         if name == "coulomb_friction":
             col = self._put(b, v, b.F(np.tanh(dq / self.eps)))
         elif name == "viscous_friction":
-            col = self._put(b, v, b.dq_f[:, v])
+            col = self._put(b, v, b.dq_mid_f[:, v])
         elif name == "stribeck_friction":
             col = self._put(b, v, b.F(np.exp(-((np.abs(dq) / term.theta) ** 2)) * np.tanh(dq / self.eps)))
         elif name == "rotor_inertia":
@@ -486,11 +490,18 @@ def select(sel: Selector, max_effects: int = MAX_EFFECTS) -> tuple[list[StepReco
              "heldout_improvement_pct": round(c[4], 3), "rejected_because": c[5]} for c in cands[:6]]})
         if not passing:
             break
-        best = passing[0]
-        rivals = [c for c in passing[1:] if c[0] - best[0] < AMBIGUOUS_BIC]
+        # near-ties on the training blocks; the held-out blocks may still separate them (another part of
+        # the data): the tied candidate best on held-out data wins, and only those within
+        # HELDOUT_TIE of it on held-out data stay ambiguous
+        group = [c for c in passing if c[0] - passing[0][0] < AMBIGUOUS_BIC]
+        if sel.test and len(group) > 1:
+            group.sort(key=lambda c: c[2].heldout_mse)
+            group = [c for c in group if c[2].heldout_mse <= HELDOUT_TIE * group[0][2].heldout_mse]
+        best, rivals = group[0], group[1:]
         term, fit = best[1], best[2]
         selected = list(fit.terms)
         amb = [{"name": c[1].name, "joint": c[1].joint, "delta_bic_vs_best": round(c[0] - best[0], 2),
+                "heldout_mse_vs_best": round(c[2].heldout_mse / best[2].heldout_mse, 4),
                 "params": term_params(c[1])[0]} for c in rivals]
         steps.append(StepRecord(term, best[3], best[4], amb))
         cur = fit

@@ -1,11 +1,10 @@
 """Windowed replay: the model driven by the recorded commanded torques, re-initialised from the measured
-state at the start of each window (pinocchio `aba` with the plant's armature and payloads, the plant's
-actuator chain and friction, semi-implicit Euler at the log rate, torque held over each sample)."""
+state at the start of each window (pinocchio, the plant's armature, payloads,
+actuator chain and friction, `Robot.forward_step` at the log rate, torque held over each sample)."""
 
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial
@@ -35,12 +34,11 @@ def replay(trial: Trial, robot: Robot, plant: PlantEffects, window_s: float = 0.
         for k in range(s, e):
             q_sim[k] = q
             tau[:] = 0.0
-            tau[act] = applied[k] + plant.friction_torque(dq[act])
+            tau[act] = applied[k]
             if ext is not None:
                 tau += ext[k]
-            ddq = pin.aba(model, data, q, dq, tau)
-            dq = dq + dt * ddq
-            q = np.clip(q + dt * dq, lo - 1.0, hi + 1.0)
+            q, dq = robot.forward_step(model, data, q, dq, tau, plant, dt)
+            q = np.clip(q, lo - 1.0, hi + 1.0)
         err = q_sim[s:e] - q_meas[s:e]
         win_rms.append(np.sqrt(np.mean(err**2, axis=0)))
         starts.append(trial.t[s])

@@ -79,6 +79,28 @@ class Robot:
     def plant_model(self, plant: PlantEffects | None):
         return self.model if plant is None else plant.apply_to_pinocchio(self.model)
 
+    def forward_step(self, model, data, q: np.ndarray, dq: np.ndarray, tau: np.ndarray,
+                     plant: PlantEffects, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """One step of length dt: joint torque `tau` (without friction) held, the plant's friction
+        linearly implicit at the step's midpoint velocity (stable for a sharp tanh on a light joint),
+        semi-implicit Euler. Returns (q, dq) after the step.
+
+        The friction applied is f(dq_k) + f'(dq_k) (dq_k+1 - dq_k) / 2 ~ f((dq_k + dq_k+1) / 2), which is
+        what the inverse-dynamics residual evaluates.
+        """
+        act = self.act_idx
+        M = pin.crba(model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        h = pin.rnea(model, data, q, dq, np.zeros(self.nv))
+        rhs = tau - h
+        fr, slope = plant.friction_and_slope(dq[act])
+        rhs[act] += fr
+        mjj = np.diag(M)[act]
+        M[act, act] += 0.5 * dt * np.maximum(slope, -mjj / dt)
+        ddq = np.linalg.solve(M, rhs)
+        dq = dq + dt * ddq
+        return q + dt * dq, dq
+
     # ---- batched dynamics ------------------------------------------------------------------------
     @staticmethod
     def rnea(model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:

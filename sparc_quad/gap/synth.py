@@ -1,8 +1,9 @@
 """`gap synth`: trials from a simulated fixed-base chain (default: the bench spine, q1 = 0) with effects
 hidden from the nominal model.
 
-Plant: pinocchio forward dynamics (`aba`, with the plant's armature and payloads in the model) at the log
-rate, semi-implicit Euler, torque zero-order hold. pybullet cannot express rotor inertia (no armature), so
+Plant: pinocchio forward dynamics (mass matrix with the plant's armature and payloads, friction linearly
+implicit at the step's midpoint velocity) at the log rate, semi-implicit Euler, torque zero-order hold.
+pybullet cannot express rotor inertia (no armature), so
 the synthetic plant is pinocchio's; it loads the same plant-effects file the pybullet worlds load.
 The nominal plant carries the spine's nominal Stribeck friction (`spine_module.params.NOMINAL_FRICTION`),
 the controller compensates it; the true plant = nominal + hidden effects, plus torque noise
@@ -81,7 +82,8 @@ def nominal_spine_plant(joints: Sequence[str]) -> PlantEffects:
     f = P.NOMINAL_FRICTION
     effects = []
     for j in joints:
-        effects += [Effect("coulomb_friction", j, {"tau_c_nm": f.tau_c_nm}),
+        effects += [Effect("rotor_inertia", j, {"inertia_kg_m2": P.REFLECTED_ROTOR_INERTIA_KG_M2}),
+                    Effect("coulomb_friction", j, {"tau_c_nm": f.tau_c_nm}),
                     Effect("stribeck_friction", j, {"tau_s_nm": f.tau_s_nm - f.tau_c_nm,
                                                      "dq_s_rad_s": f.dq_s_rad_s}),
                     Effect("viscous_friction", j, {"b_nm_s_rad": f.b_nm_s_rad})]
@@ -117,6 +119,22 @@ def random_excitation(robot: Robot, q0: np.ndarray, rng: np.random.Generator, am
     scale = amp_rad / np.max(np.abs(q - q0), axis=0)
     ex.a, ex.b = a * scale, b * scale
     return ex
+
+
+def informative_excitation(robot: Robot, model, q0: np.ndarray, rng: np.random.Generator,
+                           amp_rad: float, period_s: float, tries: int = 12) -> Excitation:
+    """Of `tries` random excitations, the one whose nominal torque changes sign most on its worst joint
+    (a torque that never changes sign cannot separate an offset from a deadband, nor a gain from an
+    offset well)."""
+    t = np.linspace(0.0, period_s, 300, endpoint=False)
+    best, best_score = None, -1.0
+    for _ in range(tries):
+        ex = random_excitation(robot, q0, rng, amp_rad, period_s)
+        tau = Robot.rnea(model, *ex(t))[:, robot.act_idx]
+        score = float(np.min(np.minimum((tau > 0).mean(0), (tau < 0).mean(0))))
+        if score > best_score:
+            best, best_score = ex, score
+    return best
 
 
 def simulate(robot: Robot, true_plant: PlantEffects, nominal_plant: PlantEffects, ex: Excitation,
@@ -156,12 +174,11 @@ def simulate(robot: Robot, true_plant: PlantEffects, nominal_plant: PlantEffects
         dqm = quant(dq, lsb_dq)
         tau = np.clip(ff[k] + kp * (q_d[k] - qm) + kd * (dq_d[k] - dqm), -limit, limit)
         Q[k], DQ[k], TAU[k] = qm, dqm, tau
-        tj = true_plant.applied_torque(tau) + noise[k] + true_plant.friction_torque(dq)
+        tj = np.zeros(robot.nv)
+        tj[robot.act_idx] = true_plant.applied_torque(tau) + noise[k]
         if unmodelled is not None:
             tj = tj + unmodelled(q, dq)
-        ddq = pin.aba(true_model, data, q, dq, tj)
-        dq = dq + dt * ddq
-        q = q + dt * dq
+        q, dq = robot.forward_step(true_model, data, q, dq, tj, true_plant, dt)
         if not np.all(np.isfinite(q)):
             raise RuntimeError(f"synthetic plant diverged at t={t[k]:.3f} s")
     return Trial(Path("synth.csv"), {}, t, Q, DQ, TAU, None, None, robot)
@@ -181,7 +198,8 @@ def synth(out: str | Path, effects: Sequence[str | Effect] = (), *, seed: int = 
           urdf: str | Path = SPINE_URDF, actuated: Sequence[str] = P.ACTUATED_JOINTS,
           fixed: dict | None = None, gravity: Sequence[float] = (0, 0, -P.GRAVITY_M_S2),
           q0: Sequence[float] | None = None, nominal: PlantEffects | None = None,
-          unmodelled: str | None = None, torque_noise_nm: float = 0.02) -> dict:
+          unmodelled: str | None = None, torque_noise_nm: float = 0.02,
+          optimise_excitation: bool = True) -> dict:
     """Write `n_trials` trials (each `periods` repeats of a random excitation) into `out`.
 
     Returns {"trials": [csv paths], "nominal_plant": path, "true_plant": path, "hidden": [effects]}.
@@ -196,7 +214,11 @@ def synth(out: str | Path, effects: Sequence[str | Effect] = (), *, seed: int = 
     q0 = np.asarray(q0, dtype=float)
     nominal = nominal if nominal is not None else nominal_spine_plant(robot.actuated)
     rng = np.random.default_rng(seed)
-    exc = [random_excitation(robot, q0, rng, amp_rad, period_s) for _ in range(n_trials)]
+    if optimise_excitation:
+        model = robot.plant_model(nominal)
+        exc = [informative_excitation(robot, model, q0, rng, amp_rad, period_s) for _ in range(n_trials)]
+    else:
+        exc = [random_excitation(robot, q0, rng, amp_rad, period_s) for _ in range(n_trials)]
     hidden = [e if isinstance(e, Effect) else parse_effect_spec(e, robot) for e in effects]
     duration = periods * period_s
     for e in hidden:

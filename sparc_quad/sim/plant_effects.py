@@ -153,6 +153,12 @@ class PlantEffects:
                     self.deadband[j] += p["width_nm"]
                 case "payload_mass":
                     pass
+        # Stribeck terms as arrays: joint index, amplitude, velocity, and a (n, terms) indicator
+        self._st_j = np.array([s[0] for s in self.stribeck], dtype=int)
+        self._st_tau = np.array([s[1] for s in self.stribeck], dtype=float)
+        self._st_dqs = np.array([s[2] for s in self.stribeck], dtype=float)
+        self._st_sum = np.zeros((n, len(self.stribeck)))
+        self._st_sum[self._st_j, np.arange(len(self.stribeck))] = 1.0
 
     def with_effects(self, extra: Sequence[Effect]) -> PlantEffects:
         return PlantEffects(self.joints, [*self.effects, *extra], self.eps)
@@ -215,17 +221,28 @@ class PlantEffects:
 
     def friction_torque(self, dq: np.ndarray) -> np.ndarray:
         """Torque the friction terms put on the joints (opposes motion); dq (n,) or (N, n)."""
-        dq = np.asarray(dq, dtype=float)
-        sgn = np.tanh(dq / self.eps)
-        mag = self.coulomb + np.zeros_like(dq)
-        for j, tau_s, dq_s in self.stribeck:
-            mag[..., j] += tau_s * np.exp(-((dq[..., j] / dq_s) ** 2))
-        return -(mag * sgn + self.viscous * dq)
+        return self._friction(dq)[0]
 
-    def friction_slope(self, dq: np.ndarray, h: float = 1e-4) -> np.ndarray:
-        """-d friction_torque / d dq (>= 0 where dissipative): for linearly-implicit integration."""
+    def _friction(self, dq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(friction torque, -its derivative in dq)."""
         dq = np.asarray(dq, dtype=float)
-        return -(self.friction_torque(dq + h) - self.friction_torque(dq - h)) / (2 * h)
+        th = np.tanh(dq / self.eps)
+        mag, dmag = self.coulomb + np.zeros_like(dq), np.zeros_like(dq)
+        if self.stribeck:
+            x = dq[..., self._st_j] / self._st_dqs
+            e = self._st_tau * np.exp(-(x**2))
+            mag = mag + e @ self._st_sum.T
+            dmag = (e * (-2.0 * x / self._st_dqs)) @ self._st_sum.T
+        torque = -(mag * th + self.viscous * dq)
+        slope = dmag * th + mag * (1.0 - th**2) / self.eps + self.viscous
+        return torque, slope
+
+    def friction_slope(self, dq: np.ndarray) -> np.ndarray:
+        """-d friction_torque / d dq (>= 0 where dissipative): for linearly-implicit integration."""
+        return self._friction(dq)[1]
+
+    def friction_and_slope(self, dq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self._friction(dq)
 
     def measured_q(self, q_true: np.ndarray) -> np.ndarray:
         return np.asarray(q_true, dtype=float) + self.enc_offset
