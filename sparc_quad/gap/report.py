@@ -20,12 +20,16 @@ def _fmt(x: float) -> str:
 def plot_regimes(path: Path, report: dict, robot) -> None:
     regs = report["localisation"]["regimes"]
     fig, ax = plt.subplots(figsize=(8, 3.5))
-    width = 0.8 / len(REGIMES)
+    names = ("all_samples", *REGIMES)
+    width = 0.8 / len(names)
     x = np.arange(robot.nv)
-    for i, name in enumerate(REGIMES):
-        vals = [next((r["rms_over_floor"] for r in regs if r["joint"] == j and r["regime"] == name), 0.0)
+    overall = {d["joint"]: d["rms_over_floor"] for d in report["localisation"]["joints"]}
+    for i, name in enumerate(names):
+        vals = [overall[j] if name == "all_samples" else
+                next((r["rms_over_floor"] for r in regs if r["joint"] == j and r["regime"] == name), 0.0)
                 for j in robot.joints]
-        ax.bar(x + (i - len(REGIMES) / 2 + 0.5) * width, vals, width, label=name)
+        ax.bar(x + (i - len(names) / 2 + 0.5) * width, vals, width, label=name,
+               color="0.6" if name == "all_samples" else None)
     ax.axhline(1.0, color="k", lw=0.8, ls="--", label="noise floor")
     ax.set_xticks(x, robot.joints)
     ax.set_yscale("log")
