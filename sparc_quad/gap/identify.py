@@ -60,10 +60,12 @@ class Block:
         ddq = np.vstack([np.diff(dq, axis=0) / self.trial.dt, np.zeros((1, dq.shape[1]))])
         self.dq_f = self.F(dq)
         self.ddq_f = self.F(ddq)
-        # friction acts at the step's midpoint velocity (see Robot.forward_step)
-        mid = 0.5 * (dq + np.vstack([dq[1:], dq[-1:]]))
-        self.dq_act_raw = mid[:, self.robot.act_idx]
-        self.dq_mid_f = self.F(mid)
+        # friction over a step: f(dq_k) + f'(dq_k) (dq_k+1 - dq_k) / 2, the discretisation of
+        # Robot.forward_step (second order in the step, like the midpoint value, and free of chatter)
+        step_dq = np.vstack([np.diff(dq, axis=0), np.zeros((1, dq.shape[1]))])
+        self.dq_act_raw = dq[:, self.robot.act_idx]
+        self.half_step_dq = 0.5 * step_dq[:, self.robot.act_idx]
+        self.dq_mid_f = self.F(dq + 0.5 * step_dq)
         self._qcache: dict = {}
 
     def F(self, x: np.ndarray, decimate: bool = True) -> np.ndarray:
@@ -90,8 +92,9 @@ def residual(block: Block, plant: PlantEffects) -> np.ndarray:
     model = rb.plant_model(plant)
     q = block.q_f(plant)
     tau = np.zeros((block.n, rb.nv))
+    fr, slope = plant.friction_and_slope(block.dq_act_raw)
     tau[:, rb.act_idx] = block.F(plant.applied_torque_series(tr.tau_cmd, tr.dt)
-                                 + plant.friction_torque(block.dq_act_raw))
+                                 + fr - slope * block.half_step_dq)
     if tr.f_ext is not None:
         tau += rb.ext_torque(q, block.F(tr.f_ext))
     return tau - Robot.rnea(model, q, block.dq_f, block.ddq_f)
@@ -203,14 +206,19 @@ class Library:
         ja = rb.actuated.index(term.joint)
         v = self.joint_v(term.joint)
         dq = b.dq_act_raw[:, ja]
+        half = b.half_step_dq[:, ja]
+        th = np.tanh(dq / self.eps)
+        dth = (1.0 - th**2) / self.eps
         tau = self.nominal.applied_torque_series(b.trial.tau_cmd, b.trial.dt)[:, ja]
         name = term.name
         if name == "coulomb_friction":
-            col = self._put(b, v, b.F(np.tanh(dq / self.eps)))
+            col = self._put(b, v, b.F(th + dth * half))
         elif name == "viscous_friction":
             col = self._put(b, v, b.dq_mid_f[:, v])
         elif name == "stribeck_friction":
-            col = self._put(b, v, b.F(np.exp(-((np.abs(dq) / term.theta) ** 2)) * np.tanh(dq / self.eps)))
+            x = dq / term.theta
+            e = np.exp(-(x**2))
+            col = self._put(b, v, b.F(e * th + (e * dth - 2.0 * x / term.theta * e * th) * half))
         elif name == "rotor_inertia":
             col = self._put(b, v, b.ddq_f[:, v])
         elif name == "torque_gain":
