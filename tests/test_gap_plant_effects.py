@@ -70,3 +70,24 @@ def test_pinocchio_armature_and_payload():
     assert m.inertias[3].mass == pytest.approx(0.16)
     assert pe.measured_q(np.zeros(3))[0] == 0.01
     assert rb.model.inertias[3].mass == pytest.approx(0.06)  # the original is untouched
+
+
+def test_external_wrench_torque_matches_virtual_work():
+    rb = Robot(SPINE_URDF, J, {"q1": 0.0}, ee_frame="end_effector")
+    q = np.array([[-0.9, 1.8, -0.9]])
+    w = np.array([[1.5, -2.0, 0.1]])  # f_x, f_z, m_y in the base frame
+    tau = rb.ext_torque(q, w)[0]
+    data = rb.model.createData()
+    fid = rb.model.getFrameId("end_effector")
+
+    def pose(qq):
+        pin.framesForwardKinematics(rb.model, data, qq)
+        M = data.oMf[fid]
+        return np.array([M.translation[0], M.translation[2], np.arctan2(M.rotation[0, 2], M.rotation[0, 0])])
+
+    h = 1e-6
+    for i in range(3):
+        dq = np.zeros(3)
+        dq[i] = h
+        dp = (pose(q[0] + dq) - pose(q[0] - dq)) / (2 * h)
+        assert tau[i] == pytest.approx(dp @ w[0], abs=1e-6)
