@@ -139,8 +139,8 @@ class BenchWorld:
         tau = self.last_applied.copy()
         if self.plant.noise:
             tau += self.rng.normal(0.0, s.torque_noise_nm, 3)
-        q_true = st.q[1:] if self.effects is None else self.effects.measured_q(st.q[1:])
-        return MotorFeedback(q=self._quantise(q_true, s.position_lsb_rad),
+        q_meas = st.q[1:] if self.effects is None else self.effects.measured_q(st.q[1:])
+        return MotorFeedback(q=self._quantise(q_meas, s.position_lsb_rad),
                              dq=self._quantise(st.dq[1:], s.velocity_lsb_rad_s),
                              tau=self._quantise(tau, s.torque_lsb_nm),
                              temperature_c=np.full(3, 30.0), mode=np.full(3, 2, dtype=np.int32),
