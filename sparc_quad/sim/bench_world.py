@@ -23,6 +23,7 @@ import pybullet as p
 
 from sparc_quad.robots import spine_urdf_path
 from sparc_quad.sim.plant import PlantConfig
+from sparc_quad.sim.plant_effects import PlantEffects
 from spine_module import params as P
 from spine_module.buses.base import MotorFeedback
 from spine_module.control.friction import StribeckFriction
@@ -41,7 +42,12 @@ class BenchWorld:
     """One pybullet client holding the bench spine. Deterministic for a given seed."""
 
     def __init__(self, plant: PlantConfig | None = None, seed: int = 0, dt_s: float = P.CONTROL_PERIOD_S,
-                 q0: np.ndarray | None = None) -> None:
+                 q0: np.ndarray | None = None, effects: PlantEffects | None = None) -> None:
+        if effects is not None:  # gap plant effects: check before any resource is taken
+            if list(effects.joints) != list(P.ACTUATED_JOINTS):
+                raise ValueError(f"plant-effects joints {effects.joints} != {list(P.ACTUATED_JOINTS)}")
+            if effects.payloads():
+                raise ValueError("payload_mass is not supported by the pybullet bench (use the URDF)")
         self.plant = plant or PlantConfig()
         self.dt_s = dt_s
         self.rng = np.random.default_rng(seed)
@@ -64,6 +70,12 @@ class BenchWorld:
         self.mdata = self.model.create_data()
         self.armature = np.full(3, self.plant.armature_kg_m2)
         self.friction = StribeckFriction([self.plant.friction] * 3)
+        # --- gap workflow plant effects (`--plant FILE`, sparc_quad/sim/plant_effects.py) -------------
+        self.effects = effects
+        if effects is not None:
+            effects.reset(dt_s)
+            self.armature = self.armature + effects.armature()
+        # ------------------------------------------------------------------------------------------
         self.time_s = 0.0
         self.q1_target = 0.0
         self.last_applied = np.zeros(3)
@@ -92,17 +104,24 @@ class BenchWorld:
     def step(self, tau_cmd: np.ndarray, f_ext: np.ndarray | None = None) -> None:
         """Advance one time step with motor torques tau_cmd (q2..q4, N*m) and an end-effector wrench."""
         st = self.state()
-        tau = np.clip(np.asarray(tau_cmd, dtype=float), -P.TORQUE_LIMIT_NM, P.TORQUE_LIMIT_NM)
-        self.last_applied = tau.copy()
+        tau = np.asarray(tau_cmd, dtype=float)
         dq = st.dq[1:]
-        gen = tau - self.friction.torque(dq)
+        slope = np.maximum(self.friction.slope(dq), 0.0)
+        extra = 0.0
+        if self.effects is not None:  # gap plant effects: actuator chain and extra friction
+            tau = self.effects.applied_torque(tau)
+            extra = self.effects.friction_torque(dq)
+            slope = slope + np.maximum(self.effects.friction_slope(dq), 0.0)
+        tau = np.clip(tau, -P.TORQUE_LIMIT_NM, P.TORQUE_LIMIT_NM)
+        self.last_applied = tau.copy()
+        gen = tau - self.friction.torque(dq) + extra
         if f_ext is not None:
             self.model.update_kinematics(self.mdata, st.q, st.dq)
             gen += (self.mdata.J.T @ np.asarray(f_ext, dtype=float))[1:]
         # q1 is clamped (q̈1 = 0), so the actuated rows decouple from it
         M = pin.crba(self.model.model, self.mdata.dyn, st.q)[1:, 1:]
         h = self.model.rnea(self.mdata, st.q, st.dq, self.mdata.zero_v)[1:]
-        M_eff = M + np.diag(self.armature + self.dt_s * np.maximum(self.friction.slope(dq), 0.0))
+        M_eff = M + np.diag(self.armature + self.dt_s * slope)
         ddq = np.linalg.solve(M_eff, gen - h)
         p.setJointMotorControlArray(self.body, self.actuated, p.TORQUE_CONTROL, forces=(M @ ddq + h).tolist(),
                                     physicsClientId=self.client)
@@ -120,7 +139,8 @@ class BenchWorld:
         tau = self.last_applied.copy()
         if self.plant.noise:
             tau += self.rng.normal(0.0, s.torque_noise_nm, 3)
-        return MotorFeedback(q=self._quantise(st.q[1:], s.position_lsb_rad),
+        q_meas = st.q[1:] if self.effects is None else self.effects.measured_q(st.q[1:])
+        return MotorFeedback(q=self._quantise(q_meas, s.position_lsb_rad),
                              dq=self._quantise(st.dq[1:], s.velocity_lsb_rad_s),
                              tau=self._quantise(tau, s.torque_lsb_nm),
                              temperature_c=np.full(3, 30.0), mode=np.full(3, 2, dtype=np.int32),

@@ -1,0 +1,1 @@
+"""Sim-vs-measured gap workflow: trials, replay, effect library, selection, report."""

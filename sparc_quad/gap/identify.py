@@ -1,0 +1,525 @@
+"""Inverse-dynamics residual, noise floor, the effect library and its selection.
+
+Residual (per joint, N*m) at decimated samples of zero-phase low-passed signals:
+    r = F(applied(tau_cmd)) + F(friction(dq)) + J^T w - rnea(q_true, dq, ddq)
+with the plant's actuator chain, friction, armature, payloads and encoder offset; ddq is the forward
+difference of dq (the torque held over [t_k, t_k+1) is what changed dq_k into dq_k+1), then F.
+Every candidate effect is a set of columns (linear in its amplitude) or a fixed column (a nonlinear map of
+the commanded torque) computed at full rate, filtered by the same F and decimated; its shape parameter
+(Stribeck velocity, delay, saturation limit, deadband width) is profiled on a grid and refined.
+Selection: forward stepwise on the training blocks, BIC on decimated samples (one sample per 1/(2 f_c)),
+each joint whitened by its noise floor; a candidate passes when dBIC <= -BIC_MIN, it improves the
+held-out residual by >= HELDOUT_MIN_PCT, its fitted contribution is at least MIN_CONTRIBUTION noise
+floors RMS on its most affected joint, and its parameters are physically plausible. Passing candidates
+of different name or joint within AMBIGUOUS_BIC of the best are reported as ambiguous.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import statsmodels.api as sm
+from scipy.optimize import minimize_scalar
+from scipy.signal import butter, sosfiltfilt
+
+from sparc_quad.gap.robot import Robot
+from sparc_quad.gap.trial import Trial
+from sparc_quad.sim.plant_effects import EFFECT_NAMES, Effect, PlantEffects
+
+BIC_MIN = 10.0
+HELDOUT_MIN_PCT = 1.0
+AMBIGUOUS_BIC = 6.0
+HELDOUT_TIE = 1.1  # held-out MSE ratio under which two training-tied candidates stay ambiguous
+MIN_CONTRIBUTION = 0.3  # an effect smaller than this x the noise floor changes the gap by < 5 %: not named
+MAX_EFFECTS = 6
+EDGE_S = 0.15  # filter edge margin dropped at each end of a block
+
+
+# ---- preprocessing ------------------------------------------------------------------------------------
+@dataclass
+class Block:
+    """One contiguous block of one trial, filtered, with decimation indices."""
+
+    trial: Trial
+    robot: Robot
+    cutoff_hz: float
+    step: int  # decimation step in samples
+    idx: np.ndarray = field(init=False)
+    sos: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        rate = self.trial.rate_hz
+        self.sos = butter(4, self.cutoff_hz, fs=rate, output="sos")
+        n = len(self.trial.t)
+        edge = round(EDGE_S * rate)
+        idx = np.arange(0, n, self.step)
+        self.idx = idx[(idx >= edge) & (idx < n - edge - 1)]
+        dq = self.trial.dq
+        ddq = np.vstack([np.diff(dq, axis=0) / self.trial.dt, np.zeros((1, dq.shape[1]))])
+        self.dq_f = self.F(dq)
+        self.ddq_f = self.F(ddq)
+        # friction over a step: f(dq_k) + f'(dq_k) (dq_k+1 - dq_k) / 2, the discretisation of
+        # Robot.forward_step (second order in the step, like the midpoint value, and free of chatter)
+        step_dq = np.vstack([np.diff(dq, axis=0), np.zeros((1, dq.shape[1]))])
+        self.dq_act_raw = dq[:, self.robot.act_idx]
+        self.half_step_dq = 0.5 * step_dq[:, self.robot.act_idx]
+        self.dq_mid_f = self.F(dq + 0.5 * step_dq)
+        self._qcache: dict = {}
+
+    def F(self, x: np.ndarray, decimate: bool = True) -> np.ndarray:
+        y = sosfiltfilt(self.sos, x, axis=0)
+        return y[self.idx] if decimate else y
+
+    def q_f(self, plant: PlantEffects) -> np.ndarray:
+        key = tuple(plant.enc_offset)
+        if key not in self._qcache:
+            q = self.trial.q.copy()
+            q[:, self.robot.act_idx] = plant.true_q(q[:, self.robot.act_idx])
+            self._qcache = {key: self.F(q)}
+        return self._qcache[key]
+
+    @property
+    def n(self) -> int:
+        return len(self.idx)
+
+
+def residual(block: Block, plant: PlantEffects) -> np.ndarray:
+    """Inverse-dynamics residual (n_dec, nv), N*m (see module docstring)."""
+    rb = block.robot
+    tr = block.trial
+    model = rb.plant_model(plant)
+    q = block.q_f(plant)
+    tau = np.zeros((block.n, rb.nv))
+    fr, slope = plant.friction_and_slope(block.dq_act_raw)
+    tau[:, rb.act_idx] = block.F(plant.applied_torque_series(tr.tau_cmd, tr.dt)
+                                 + fr - slope * block.half_step_dq)
+    if tr.f_ext is not None:
+        tau += rb.ext_torque(q, block.F(tr.f_ext))
+    return tau - Robot.rnea(model, q, block.dq_f, block.ddq_f)
+
+
+# ---- noise floor -----------------------------------------------------------------------------------------
+def noise_floor(blocks: list[Block], residuals: list[np.ndarray]) -> tuple[np.ndarray, str]:
+    """Per-joint RMS (N*m) of the residual part no model can explain.
+
+    Repeated segments when the trials say their excitation has a period (`period_s`) and hold >= 2 of them:
+    the spread of the residual across periods at equal phase (deterministic effects repeat, noise does
+    not). Otherwise the high-frequency residual: robust scale of second differences of the decimated
+    residual (a rough bound that includes fast model errors).
+    """
+    per_sum, per_cnt = None, 0
+    for b, r in zip(blocks, residuals, strict=True):
+        period = b.trial.meta.get("period_s")
+        if not period:
+            continue
+        P = round(period * b.trial.rate_hz)
+        if P % b.step:
+            continue
+        phase = b.idx % P
+        cyc = b.idx // P
+        if cyc.max() - cyc.min() < 1:
+            continue
+        for ph in np.unique(phase):
+            sel = phase == ph
+            if sel.sum() >= 2:
+                v = np.var(r[sel], axis=0, ddof=1)
+                per_sum = v * (sel.sum() - 1) if per_sum is None else per_sum + v * (sel.sum() - 1)
+                per_cnt += sel.sum() - 1
+    if per_sum is not None and per_cnt >= 20:
+        return np.sqrt(per_sum / per_cnt), "repeated_segments"
+    d2 = np.vstack([np.diff(r, n=2, axis=0) for r in residuals])
+    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) * 1.4826
+    # var(second difference) = sigma^2 (6 - 8 rho1 + 2 rho2), rho_k: the correlation the low-pass leaves
+    # between decimated samples of white noise (the residual noise of the synthetic bench matches it)
+    rho1, rho2 = filtered_white_correlation(blocks[0])
+    return mad / math.sqrt(6.0 - 8.0 * rho1 + 2.0 * rho2), "high_frequency_residual"
+
+
+def filtered_white_correlation(block: Block) -> tuple[float, float]:
+    n = 8 * block.step + int(4 * block.trial.rate_hz / block.cutoff_hz)
+    imp = np.zeros(2 * n + 1)
+    imp[n] = 1.0
+    h = sosfiltfilt(block.sos, imp)
+    def rho(lag):
+        return float(np.dot(h[:-lag], h[lag:]) / np.dot(h, h))
+    return rho(block.step), rho(2 * block.step)
+
+
+# ---- effect columns ------------------------------------------------------------------------------------
+@dataclass(eq=False)
+class Term:
+    """One candidate or selected effect: fixed shape parameter `theta`, linear columns, fixed column."""
+
+    name: str
+    joint: str
+    theta: float | None = None
+    link: str | None = None
+    xyz: np.ndarray | None = None
+    coef_index: int = -1  # index of its amplitude in the joint fit
+    coef: float = float("nan")
+    se: float = float("nan")
+    theta_se: float = float("nan")
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return (self.name, self.joint)
+
+    @property
+    def fixed(self) -> bool:
+        return self.name in ("time_delay", "torque_saturation", "torque_deadband")
+
+    @property
+    def n_params(self) -> int:
+        if self.name == "encoder_offset":  # theta is the linearisation point, tied to the amplitude
+            return 1
+        return (0 if self.fixed else 1) + (1 if self.theta is not None else 0)
+
+
+class Library:
+    """Computes columns for every effect on the blocks, with caching."""
+
+    def __init__(self, blocks: list[Block], nominal: PlantEffects):
+        self.blocks = blocks
+        self.nominal = nominal
+        self.robot = blocks[0].robot
+        self.eps = nominal.eps
+        self._cache: dict = {}
+        self.models = [self.robot.plant_model(nominal)] * len(blocks)
+
+    def joint_v(self, joint: str) -> int:
+        return int(self.robot.act_idx[self.robot.actuated.index(joint)])
+
+    def _put(self, b: Block, v: int, col_act: np.ndarray) -> np.ndarray:
+        out = np.zeros((b.n, self.robot.nv))
+        out[:, v] = col_act
+        return out
+
+    def column(self, term: Term, bi: int) -> np.ndarray:
+        """(n_dec, nv) column for block bi (linear amplitude 1, or the fixed map)."""
+        key = (term.name, term.joint, term.theta, bi)
+        if key in self._cache:
+            return self._cache[key]
+        b = self.blocks[bi]
+        rb = self.robot
+        ja = rb.actuated.index(term.joint)
+        v = self.joint_v(term.joint)
+        dq = b.dq_act_raw[:, ja]
+        half = b.half_step_dq[:, ja]
+        th = np.tanh(dq / self.eps)
+        dth = (1.0 - th**2) / self.eps
+        tau = self.nominal.applied_torque_series(b.trial.tau_cmd, b.trial.dt)[:, ja]
+        name = term.name
+        if name == "coulomb_friction":
+            col = self._put(b, v, b.F(th + dth * half))
+        elif name == "viscous_friction":
+            col = self._put(b, v, b.dq_mid_f[:, v])
+        elif name == "stribeck_friction":
+            x = dq / term.theta
+            e = np.exp(-(x**2))
+            col = self._put(b, v, b.F(e * th + (e * dth - 2.0 * x / term.theta * e * th) * half))
+        elif name == "rotor_inertia":
+            col = self._put(b, v, b.ddq_f[:, v])
+        elif name == "torque_gain":
+            col = self._put(b, v, -b.F(tau))  # r = (1 - k) tau = -(k - 1) tau; amplitude = k - 1
+        elif name == "torque_offset":
+            col = self._put(b, v, -np.ones(b.n))
+        elif name == "encoder_offset":
+            q = b.q_f(self.nominal)
+            if term.theta:  # secant through the estimate: exact at offset = theta
+                qs = q.copy()
+                qs[:, v] -= term.theta
+                m = self.models[bi]
+                col = (Robot.rnea(m, qs, b.dq_f, b.ddq_f) - Robot.rnea(m, q, b.dq_f, b.ddq_f)) / term.theta
+            else:
+                d = rb.rnea_dq(self.models[bi], q, b.dq_f, b.ddq_f)
+                col = -d[:, :, v]
+        elif name == "payload_mass":
+            col = rb.point_mass_column(self.models[bi], term.joint, term.xyz, b.q_f(self.nominal),
+                                       b.dq_f, b.ddq_f)
+        elif name == "time_delay":
+            s = round(term.theta / b.trial.dt)
+            shifted = np.concatenate([np.full(s, tau[0]), tau[:-s]]) if s > 0 else tau
+            col = self._put(b, v, b.F(tau - shifted))
+        elif name == "torque_saturation":
+            col = self._put(b, v, b.F(tau - np.clip(tau, -term.theta, term.theta)))
+        elif name == "torque_deadband":
+            col = self._put(b, v, b.F(np.sign(tau) * np.minimum(np.abs(tau), term.theta)))
+        else:
+            raise KeyError(name)
+        if len(self._cache) > 4000:
+            self._cache.clear()
+        self._cache[key] = col
+        return col
+
+
+@dataclass
+class Fit:
+    terms: list[Term]
+    bic: float
+    rss: float
+    n: int
+    beta: np.ndarray
+    se: np.ndarray
+    heldout_mse: float
+
+
+class Selector:
+    """Stepwise selection over the library on training blocks, checked on held-out blocks."""
+
+    def __init__(self, lib: Library, train: list[int], test: list[int], base_res: list[np.ndarray],
+                 sigma: np.ndarray):
+        self.lib, self.train, self.test = lib, train, test
+        self.base = base_res
+        self.w = 1.0 / np.maximum(sigma, 1e-9)
+        self.robot = lib.robot
+
+    def _design(self, terms: list[Term], blocks: list[int]):
+        ys, xs = [], []
+        lin = [t for t in terms if not t.fixed]
+        for bi in blocks:
+            y = self.base[bi].copy()
+            for t in terms:
+                if t.fixed:
+                    y = y - self.lib.column(t, bi)
+            ys.append((y * self.w).reshape(-1, order="F"))
+            if lin:
+                xs.append(np.column_stack([(self.lib.column(t, bi) * self.w).reshape(-1, order="F")
+                                           for t in lin]))
+        y = np.concatenate(ys)
+        X = np.vstack(xs) if lin else np.zeros((len(y), 0))
+        return y, X, lin
+
+    def fit(self, terms: list[Term], with_se: bool = False) -> Fit:
+        y, X, _lin = self._design(terms, self.train)
+        n = len(y)
+        k = sum(t.n_params for t in terms)
+        if X.shape[1]:
+            if with_se:
+                res = sm.OLS(y, X).fit()
+                beta, se, rss = res.params, res.bse, float(res.ssr)
+            else:
+                beta, *_ = np.linalg.lstsq(X, y, rcond=None)
+                rss = float(np.sum((y - X @ beta) ** 2))
+                se = np.full_like(beta, np.nan)
+        else:
+            beta, se, rss = np.zeros(0), np.zeros(0), float(y @ y)
+        bic = n * math.log(rss / n) + k * math.log(n)
+        ho = float("nan")
+        if self.test:
+            yt, Xt, _ = self._design(terms, self.test)
+            ho = float(np.mean((yt - Xt @ beta) ** 2)) if Xt.shape[1] else float(np.mean(yt**2))
+        return Fit(terms, bic, rss, n, beta, se, ho)
+
+    def contribution(self, fit: Fit) -> float:
+        """RMS of the last term's fitted contribution, in noise floors, on its most affected joint."""
+        t = fit.terms[-1]
+        blocks = self.test or self.train
+        cols = np.vstack([self.lib.column(t, bi) for bi in blocks]) * self.w
+        if not t.fixed:
+            cols = cols * fit.beta[sum(not x.fixed for x in fit.terms) - 1]
+        return float(np.max(np.sqrt(np.mean(cols**2, axis=0))))
+
+    # ---- profiling grids -----------------------------------------------------------------------------
+    def grid(self, name: str, joint: str) -> list[float] | None:
+        lib = self.lib
+        ja = self.robot.actuated.index(joint)
+        if name == "stribeck_friction":
+            dq = np.concatenate([np.abs(lib.blocks[b].dq_act_raw[:, ja]) for b in self.train])
+            hi = max(float(np.percentile(dq, 90)), 0.02)
+            return list(np.geomspace(0.01, hi, 14))
+        if name == "time_delay":
+            dt = lib.blocks[0].trial.dt
+            return [s * dt for s in range(1, round(0.05 / dt) + 1)]
+        tau = np.concatenate([np.abs(lib.blocks[b].trial.tau_cmd[:, ja]) for b in self.train])
+        if name == "torque_saturation":
+            pct = [*range(2, 90, 4), 90, 92, 94, 96, 97, 98, 99, 99.5, 99.8, 99.9, 99.95]
+            return list(np.unique(np.percentile(tau, pct)))
+        if name == "torque_deadband":
+            top = float(np.percentile(tau, 50))
+            return list(np.linspace(top / 25, top, 25))
+        return None
+
+    def candidate(self, selected: list[Term], name: str, joint: str) -> tuple[Term, Fit]:
+        grid = self.grid(name, joint)
+        if name == "payload_mass":
+            t = Term(name, joint, link=self.robot.child_link(joint), xyz=self.robot.link_com(joint))
+            return t, self.fit([*selected, t])
+        if name == "encoder_offset":  # Gauss-Newton: tangent, then secants through the estimate
+            t = Term(name, joint)
+            fit = self.fit([*selected, t])
+            for _ in range(2):
+                delta = float(fit.beta[sum(not x.fixed for x in fit.terms) - 1])
+                if not (np.isfinite(delta) and 1e-6 < abs(delta) < 0.5):
+                    break
+                t = Term(name, joint, theta=delta)
+                fit = self.fit([*selected, t])
+            return t, fit
+        if grid is None:
+            t = Term(name, joint)
+            return t, self.fit([*selected, t])
+        fits = [self.fit([*selected, Term(name, joint, theta=g)]) for g in grid]
+        bics = np.array([f.bic for f in fits])
+        i = int(np.argmin(bics))
+        theta, best = grid[i], fits[i]
+        if name != "time_delay":
+            lo_b = grid[i - 1] if i > 0 else 0.5 * grid[0]
+            hi_b = grid[i + 1] if i < len(grid) - 1 else grid[-1] + 0.5 * (grid[-1] - grid[-2])
+            res = minimize_scalar(lambda g: self.fit([*selected, Term(name, joint, theta=g)]).bic,
+                                  bounds=(lo_b, hi_b), method="bounded",
+                                  options={"xatol": 1e-4 * abs(grid[i])})
+            if res.fun < best.bic:
+                theta = float(res.x)
+                best = self.fit([*selected, Term(name, joint, theta=theta)])
+        t = best.terms[-1]
+        # standard error of theta from the curvature of n*log(RSS) (= -2 log L + const) at the optimum
+        h = lib_dt(self) if name == "time_delay" else max(abs(theta) * 0.02, 1e-4)
+        try:
+            fm = self.fit([*selected, Term(name, joint, theta=theta - h)]).bic
+            fp = self.fit([*selected, Term(name, joint, theta=theta + h)]).bic
+            curv = (fp - 2 * best.bic + fm) / h**2
+            t.theta_se = math.sqrt(2.0 / curv) if curv > 0 else float("inf")
+        except (ValueError, ZeroDivisionError):
+            t.theta_se = float("nan")
+        return t, best
+
+
+def lib_dt(sel: Selector) -> float:
+    return sel.lib.blocks[0].trial.dt
+
+
+# ---- physical meaning, plausibility ------------------------------------------------------------------------
+def term_params(t: Term) -> tuple[dict, dict]:
+    """(params SI, standard errors) of a fitted term."""
+    c, se = t.coef, t.se
+    match t.name:
+        case "coulomb_friction":
+            return {"tau_c_nm": c}, {"tau_c_nm": se}
+        case "viscous_friction":
+            return {"b_nm_s_rad": c}, {"b_nm_s_rad": se}
+        case "stribeck_friction":
+            return {"tau_s_nm": c, "dq_s_rad_s": t.theta}, {"tau_s_nm": se, "dq_s_rad_s": t.theta_se}
+        case "rotor_inertia":
+            return {"inertia_kg_m2": c}, {"inertia_kg_m2": se}
+        case "torque_gain":
+            return {"gain": 1.0 + c}, {"gain": se}
+        case "torque_offset":
+            return {"offset_nm": c}, {"offset_nm": se}
+        case "time_delay":
+            return {"delay_s": t.theta}, {"delay_s": t.theta_se}
+        case "payload_mass":
+            return ({"mass_kg": c, "xyz_m": [float(x) for x in t.xyz]}, {"mass_kg": se})
+        case "encoder_offset":
+            return {"offset_rad": c}, {"offset_rad": se}
+        case "torque_saturation":
+            return {"limit_nm": t.theta}, {"limit_nm": t.theta_se}
+        case "torque_deadband":
+            return {"width_nm": t.theta}, {"width_nm": t.theta_se}
+    raise KeyError(t.name)
+
+
+def plausible(t: Term, robot: Robot, tau_peak: float) -> str | None:
+    """None when the fitted parameters are physically possible, else the reason."""
+    p, se = term_params(t)
+    limit = float(robot.model.effortLimit[robot.act_idx[robot.actuated.index(t.joint)]]) or 1e3
+    checks = {
+        "coulomb_friction": (0 < p.get("tau_c_nm", 0) < 0.5 * limit,
+                             "Coulomb friction must be in (0, limit/2)"),
+        "viscous_friction": (0 < p.get("b_nm_s_rad", 0) < 10.0,
+                             "viscous coefficient must be in (0, 10) N*m*s/rad"),
+        "stribeck_friction": (0 < p.get("tau_s_nm", 0) < 0.5 * limit and 1e-3 <= p.get("dq_s_rad_s", 0) <= 5,
+                              "Stribeck excess must be positive, velocity in [1e-3, 5] rad/s"),
+        "rotor_inertia": (0 < p.get("inertia_kg_m2", 0) < 1.0, "armature must be positive"),
+        "torque_gain": (0.3 < p.get("gain", 0) < 1.5, "torque gain must be in (0.3, 1.5)"),
+        "torque_offset": (abs(p.get("offset_nm", 0)) < 0.25 * limit, "offset beyond a quarter of the limit"),
+        "time_delay": (0 < p.get("delay_s", 0) <= 0.05, "delay must be in (0, 50 ms]"),
+        "payload_mass": (0 < p.get("mass_kg", 0) < 20.0, "payload mass must be positive"),
+        "encoder_offset": (abs(p.get("offset_rad", 0)) < 0.5, "encoder offset beyond 0.5 rad"),
+        "torque_saturation": (0 < p.get("limit_nm", 0) < tau_peak, "limit must lie below the peak command"),
+        "torque_deadband": (0 < p.get("width_nm", 0) < 0.5 * tau_peak,
+                            "deadband must be below half the peak"),
+    }
+    ok, why = checks[t.name]
+    if not ok:
+        return why
+    for k, v in se.items():
+        val = p[k]
+        if isinstance(val, float) and np.isfinite(v) and abs(val) < 2 * v:
+            return f"{k} not distinguishable from zero ({val:.3g} +- {v:.2g})"
+    return None
+
+
+@dataclass
+class StepRecord:
+    term: Term
+    delta_bic: float
+    heldout_improvement_pct: float
+    ambiguous_with: list[dict]
+
+
+def select(sel: Selector, max_effects: int = MAX_EFFECTS) -> tuple[list[StepRecord], Fit, list[dict]]:
+    """Forward stepwise selection. Returns (accepted steps, final fit, rejected/log entries)."""
+    robot = sel.robot
+    selected: list[Term] = []
+    cur = sel.fit([])
+    steps: list[StepRecord] = []
+    log: list[dict] = []
+    tau_peak = {}
+    for ja, j in enumerate(robot.actuated):
+        tau_peak[j] = max(float(np.max(np.abs(sel.lib.blocks[b].trial.tau_cmd[:, ja]))) for b in sel.train)
+    while len(steps) < max_effects:
+        cands = []
+        taken = {t.key for t in selected}
+        for name in EFFECT_NAMES:
+            for joint in robot.actuated:
+                if (name, joint) in taken:
+                    continue
+                term, fit = sel.candidate(selected, name, joint)
+                term.coef_index = sum(not x.fixed for x in fit.terms) - 1 if not term.fixed else -1
+                if not term.fixed:
+                    full = sel.fit(fit.terms, with_se=True)
+                    term.coef, term.se = float(full.beta[term.coef_index]), float(full.se[term.coef_index])
+                dbic = fit.bic - cur.bic
+                imp = 100.0 * (1.0 - fit.heldout_mse / cur.heldout_mse) if sel.test else float("nan")
+                why = plausible(term, robot, tau_peak[joint])
+                size = sel.contribution(fit)
+                if size < MIN_CONTRIBUTION:
+                    why = why or f"contribution {size:.2f} x noise floor < {MIN_CONTRIBUTION}"
+                if dbic > -BIC_MIN:
+                    why = why or f"dBIC {dbic:.1f} > -{BIC_MIN}"
+                elif sel.test and not imp >= HELDOUT_MIN_PCT:
+                    why = why or f"held-out improvement {imp:.2f} % < {HELDOUT_MIN_PCT} %"
+                cands.append((fit.bic, term, fit, dbic, imp, why))
+        cands.sort(key=lambda c: c[0])
+        passing = [c for c in cands if c[5] is None]
+        log.append({"step": len(steps) + 1, "top": [
+            {"name": c[1].name, "joint": c[1].joint, "delta_bic": round(c[3], 2),
+             "heldout_improvement_pct": round(c[4], 3), "rejected_because": c[5]} for c in cands[:6]]})
+        if not passing:
+            break
+        # near-ties on the training blocks; the held-out blocks may still separate them (another part of
+        # the data): the tied candidate best on held-out data wins, and only those within
+        # HELDOUT_TIE of it on held-out data stay ambiguous
+        group = [c for c in passing if c[0] - passing[0][0] < AMBIGUOUS_BIC]
+        if sel.test and len(group) > 1:
+            group.sort(key=lambda c: c[2].heldout_mse)
+            group = [c for c in group if c[2].heldout_mse <= HELDOUT_TIE * group[0][2].heldout_mse]
+        best, rivals = group[0], group[1:]
+        term, fit = best[1], best[2]
+        selected = list(fit.terms)
+        amb = [{"name": c[1].name, "joint": c[1].joint, "delta_bic_vs_best": round(c[0] - best[0], 2),
+                "heldout_mse_vs_best": round(c[2].heldout_mse / best[2].heldout_mse, 4),
+                "params": term_params(c[1])[0]} for c in rivals]
+        steps.append(StepRecord(term, best[3], best[4], amb))
+        cur = fit
+    final = sel.fit(selected, with_se=True)
+    lin = [t for t in selected if not t.fixed]
+    for i, t in enumerate(lin):
+        t.coef, t.se = float(final.beta[i]), float(final.se[i])
+    return steps, final, log
+
+
+def term_effect(t: Term) -> Effect:
+    p, _ = term_params(t)
+    return Effect(t.name, t.joint, p, t.link)

@@ -1,0 +1,236 @@
+"""`gap TRIAL... --out DIR`: noise floor, compare, locate, name, add, report (see identify.py)."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from sparc_quad.gap import identify as I
+from sparc_quad.gap.replay import replay
+from sparc_quad.gap.trial import Trial, TrialError, load_trial, robot_for
+from sparc_quad.sim.plant_effects import PlantEffects
+
+log = logging.getLogger(__name__)
+GAP_CLOSED_FACTOR = 1.1
+REGIMES = ("near_zero_velocity", "velocity_reversal", "high_acceleration", "high_torque", "slow_drift")
+
+
+def load_trials(paths: Sequence[str | Path]) -> list[Trial]:
+    if not paths:
+        raise TrialError("<command line>", "no trials given")
+    trials: list[Trial] = []
+    robot = None
+    for p in paths:
+        p = Path(p)
+        if robot is None:
+            tr = load_trial(p)
+            robot = tr.robot
+        else:
+            tr = load_trial(p, robot)
+            first = trials[0].meta
+            for key in ("urdf", "actuated_joints", "fixed_joints", "gravity", "rate_hz"):
+                if tr.meta.get(key) != first.get(key) and key != "urdf":
+                    raise TrialError(p.with_suffix(".json"), f"{key} differs from {trials[0].path}",
+                                     column=key)
+            if robot_for(p, tr.meta).urdf != robot.urdf and \
+                    Path(robot_for(p, tr.meta).urdf).resolve() != Path(robot.urdf).resolve():
+                raise TrialError(p.with_suffix(".json"), "urdf differs from the first trial", column="urdf")
+        trials.append(tr)
+    return trials
+
+
+def split(trials: list[Trial], heldout_fraction: float = 1 / 3) -> tuple[list[Trial], list[bool]]:
+    """Blocks and a held-out flag per block: whole trials when there are >= 2, else contiguous blocks."""
+    if len(trials) >= 2:
+        n_test = max(1, round(len(trials) * heldout_fraction))
+        flags = [False] * len(trials)
+        for i in range(n_test):
+            flags[len(trials) - 1 - i * max(1, len(trials) // n_test)] = True
+        return trials, flags
+    tr = trials[0]
+    n = len(tr.t)
+    cut = round(n * (1 - heldout_fraction))
+    period = tr.meta.get("period_s")
+    if period:
+        P = round(period * tr.rate_hz)
+        if P > 0 and cut // P >= 2 and (n - (cut // P) * P) // P >= 2:
+            cut = (cut // P) * P
+    return [tr.slice(0, cut, "_train"), tr.slice(cut, n, "_heldout")], [False, True]
+
+
+def localise(blocks: list[I.Block], res: list[np.ndarray], floor: np.ndarray, robot) -> dict:
+    """Rank joints, regimes and time spans by residual size."""
+    allr = np.vstack(res)
+    rms = np.sqrt(np.mean(allr**2, axis=0))
+    joints = sorted(({"joint": j, "rms_nm": float(rms[v]),
+                      "rms_over_floor": float(rms[v] / max(floor[v], 1e-12))}
+                     for j, v in zip(robot.joints, range(robot.nv), strict=True)),
+                    key=lambda d: -d["rms_over_floor"])
+    masks: dict[str, list[np.ndarray]] = {k: [] for k in REGIMES}
+    slow = []
+    for b, r in zip(blocks, res, strict=True):
+        dq, ddq = b.dq_f, b.ddq_f
+        tau = np.zeros_like(dq)
+        tau[:, robot.act_idx] = b.F(b.trial.tau_cmd)
+        vs = np.sqrt(np.mean(dq**2, axis=0))
+        masks["near_zero_velocity"].append(np.abs(dq) < 0.1 * vs)
+        rev = np.zeros_like(dq, dtype=bool)
+        flip = np.sign(dq[1:]) != np.sign(dq[:-1])
+        for sh in (0, 1):
+            rev[sh:sh + len(flip)] |= flip
+        masks["velocity_reversal"].append(rev)
+        masks["high_acceleration"].append(np.abs(ddq) > np.percentile(np.abs(ddq), 80, axis=0))
+        masks["high_torque"].append(np.abs(tau) > np.percentile(np.abs(tau), 80, axis=0))
+        k = max(1, round(1.0 / (b.step * b.trial.dt)))
+        kern = np.ones(k) / k
+        slow.append(np.column_stack([np.convolve(r[:, v], kern, mode="same") for v in range(robot.nv)]))
+    regimes = []
+    for v, j in enumerate(robot.joints):
+        for name in REGIMES:
+            if name == "slow_drift":
+                s = np.vstack(slow)[:, v]
+                val, frac = float(np.sqrt(np.mean(s**2))), 1.0
+            else:
+                m = np.vstack(masks[name])[:, v]
+                if not m.any():
+                    continue
+                val, frac = float(np.sqrt(np.mean(allr[m, v] ** 2))), float(m.mean())
+            regimes.append({"joint": j, "regime": name, "rms_nm": val, "fraction_of_samples": frac,
+                            "rms_over_floor": val / max(float(floor[v]), 1e-12),
+                            "rms_over_joint_rms": val / max(float(rms[v]), 1e-12)})
+    regimes.sort(key=lambda d: -d["rms_over_floor"])
+    spans = []
+    for b, r in zip(blocks, res, strict=True):
+        t = b.trial.t[b.idx]
+        k = max(1, round(0.5 / (b.step * b.trial.dt)))
+        for s in range(0, len(t) - k + 1, k):
+            seg = r[s:s + k]
+            z = np.sqrt(np.mean(seg**2, axis=0)) / np.maximum(floor, 1e-12)
+            v = int(np.argmax(z))
+            spans.append({"trial": b.trial.name, "t0_s": float(t[s]), "t1_s": float(t[s + k - 1]),
+                          "joint": robot.joints[v], "rms_over_floor": float(z[v])})
+    spans.sort(key=lambda d: -d["rms_over_floor"])
+    return {"joints": joints, "regimes": regimes, "spans": spans[:8]}
+
+
+def _per_joint(robot, arr) -> dict:
+    return {j: float(arr[v]) for v, j in enumerate(robot.joints)}
+
+
+def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Path | None = None,
+        window_s: float = 0.2, cutoff_hz: float = 20.0, plots: bool = True,
+        max_effects: int = I.MAX_EFFECTS) -> dict:
+    t_start = time.perf_counter()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    trials = load_trials(paths)
+    robot = trials[0].robot
+    plant_file = Path(nominal_plant) if nominal_plant else trials[0].plant_path()
+    nominal = PlantEffects.load(plant_file) if plant_file else PlantEffects(robot.actuated)
+    if nominal.joints != robot.actuated:
+        raise TrialError(plant_file, f"plant joints {nominal.joints} != actuated joints {robot.actuated}")
+    parts, heldout = split(trials)
+    rate = trials[0].rate_hz
+    step = max(1, round(rate / (2 * cutoff_hz)))
+    period = trials[0].meta.get("period_s")
+    if period:  # make the decimation step divide the period (repeated-segment noise floor)
+        P = round(period * rate)
+        while step > 1 and P % step:
+            step -= 1
+    blocks = [I.Block(p, robot, cutoff_hz, step) for p in parts]
+    res0 = [I.residual(b, nominal) for b in blocks]
+    floor, floor_method = I.noise_floor(blocks, res0)
+    train = [i for i, h in enumerate(heldout) if not h]
+    test = [i for i, h in enumerate(heldout) if h]
+    loc = localise(blocks, res0, floor, robot)
+    lib = I.Library(blocks, nominal)
+    sel = I.Selector(lib, train, test, res0, floor)
+    steps, _final, sel_log = I.select(sel, max_effects)
+    effects, ambiguous, added = [], [], []
+    for st in steps:
+        t = st.term
+        params, se = I.term_params(t)
+        entry = {"name": t.name, "joint": t.joint, "params": params, "std_err": se,
+                 "delta_bic": round(st.delta_bic, 3),
+                 "heldout_improvement_pct": round(st.heldout_improvement_pct, 3)}
+        if t.link:
+            entry["link"] = t.link
+        eff = I.term_effect(t)
+        if st.ambiguous_with:
+            entry_alt = [{"name": a["name"], "joint": a["joint"], "params": a["params"],
+                          "delta_bic_vs_best": a["delta_bic_vs_best"]} for a in st.ambiguous_with]
+            ambiguous.append({"best": entry, "alternatives": entry_alt,
+                              "note": "the data cannot separate these; the plant carries the best one"})
+            eff.extra["ambiguous_with"] = [f"{a['name']}@{a['joint']}" for a in st.ambiguous_with]
+        else:
+            effects.append(entry)
+        added.append(eff)
+    plant = nominal.with_effects(added)
+    plant.save(out / "plant.json")
+    ho_blocks = [blocks[i] for i in (test or train)]
+    res_before = [I.residual(b, nominal) for b in ho_blocks]
+    res_after = [I.residual(b, plant) for b in ho_blocks]
+    # noise floor on the held-out blocks, where the gap is measured: the spread across periods of the
+    # final model's residual (cleaner than the nominal one's, whose unmodelled effects vary with the
+    # small period-to-period state differences; an effect the final model misses and that does not
+    # repeat raises it, which the report shows beside the nominal-model estimate)
+    floor_all = floor
+    fb, _ = I.noise_floor(ho_blocks, res_before)
+    fa, floor_method = I.noise_floor(ho_blocks, res_after)
+    floor = fa
+    gap_b = np.sqrt(np.mean(np.vstack(res_before) ** 2, axis=0))
+    gap_a = np.sqrt(np.mean(np.vstack(res_after) ** 2, axis=0))
+    rep_b = [replay(b.trial, robot, nominal, window_s) for b in ho_blocks]
+    rep_a = [replay(b.trial, robot, plant, window_s) for b in ho_blocks]
+    rb = np.sqrt(np.mean(np.vstack([r["window_rms"] for r in rep_b]) ** 2, axis=0))
+    ra = np.sqrt(np.mean(np.vstack([r["window_rms"] for r in rep_a]) ** 2, axis=0))
+    closed = bool(np.all(gap_a <= GAP_CLOSED_FACTOR * floor))
+    verdict = "gap_closed" if closed else "unexplained_residual"
+    report = {
+        "verdict": verdict,
+        "effects": effects,
+        "ambiguous": ambiguous,
+        "noise_floor": _per_joint(robot, floor),
+        "noise_floor_method": floor_method,
+        "noise_floor_heldout_nominal_model": _per_joint(robot, fb),
+        "noise_floor_heldout_final_model": _per_joint(robot, fa),
+        "noise_floor_all_blocks_nominal_model": _per_joint(robot, floor_all),
+        "gap_before": {"id_residual_rms_nm": _per_joint(robot, gap_b),
+                       "replay_rms_rad": _per_joint(robot, rb)},
+        "gap_after": {"id_residual_rms_nm": _per_joint(robot, gap_a),
+                      "replay_rms_rad": _per_joint(robot, ra)},
+        "gap_after_over_floor": _per_joint(robot, gap_a / np.maximum(floor, 1e-12)),
+        "gap_closed_factor": GAP_CLOSED_FACTOR,
+        "localisation": loc,
+        "selection_log": sel_log,
+        "settings": {"cutoff_hz": cutoff_hz, "decimation_step": step, "decimated_rate_hz": rate / step,
+                     "window_s": window_s, "bic_min": I.BIC_MIN, "heldout_min_pct": I.HELDOUT_MIN_PCT,
+                     "ambiguous_bic": I.AMBIGUOUS_BIC,
+                     "min_contribution_over_floor": I.MIN_CONTRIBUTION,
+                     "nominal_plant": str(plant_file) if plant_file else None},
+        "trials": [{"block": b.trial.name, "heldout": h, "samples": len(b.trial.t), "decimated": b.n}
+                   for b, h in zip(blocks, heldout, strict=True)],
+        "robot": {"urdf": robot.urdf, "joints": robot.joints, "actuated": robot.actuated},
+        "plant_file": "plant.json",
+    }
+    report["wall_time_s"] = round(time.perf_counter() - t_start, 3)
+    (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
+    if plots:
+        from sparc_quad.gap import report as R
+        R.write(out, report, robot, blocks, res0, ho_blocks, res_before, res_after, rep_b, rep_a, floor)
+        report["wall_time_s"] = round(time.perf_counter() - t_start, 3)
+        (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
+    return report
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o))
