@@ -15,6 +15,7 @@ hind-body frame).
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +44,8 @@ class BenchWorld:
 
     def __init__(self, plant: PlantConfig | None = None, seed: int = 0, dt_s: float = P.CONTROL_PERIOD_S,
                  q0: np.ndarray | None = None, effects: PlantEffects | None = None) -> None:
+        effects = effects if effects is not None else (plant.effects if plant is not None else None)
+        effects = copy.deepcopy(effects)  # it holds a delay line: each world gets its own
         if effects is not None:  # gap plant effects: check before any resource is taken
             if list(effects.joints) != list(P.ACTUATED_JOINTS):
                 raise ValueError(f"plant-effects joints {effects.joints} != {list(P.ACTUATED_JOINTS)}")

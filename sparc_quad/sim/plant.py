@@ -2,7 +2,11 @@
 
 The controller compensates friction with its identified estimate (`params.NOMINAL_FRICTION`); the plant
 carries the "true" friction, which differs by configurable factors, plus encoder quantisation and noisy
-torque sensing, so that the controllers are tested against a plant that is not their own model.
+torque sensing, so that the controllers are tested against a plant that is not their own model. On top of
+that it may carry named actuator and load effects (`PlantEffects`, the gap workflow's vocabulary).
+
+`--plant FILE` takes either a PlantConfig JSON or a gap workflow `plant.json` (plant-effects schema);
+`load_plant` reads both. A plant-effects file means "the nominal model plus these identified effects".
 """
 
 from __future__ import annotations
@@ -11,6 +15,8 @@ import json
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+from sparc_quad.sim.plant_effects import SCHEMA as EFFECTS_SCHEMA
+from sparc_quad.sim.plant_effects import PlantEffects
 from spine_module import params as P
 
 
@@ -33,6 +39,7 @@ class PlantConfig:
     sensors: P.SensorParams = P.SENSORS
     quantise: bool = True  # encoder and CAN-frame quantisation of q, dq
     noise: bool = True  # torque-sensing and load-cell noise
+    effects: PlantEffects | None = None  # named effects on top (gap workflow plant file)
 
     def with_friction_factors(self, coulomb: float = 1.0, static: float = 1.0, viscous: float = 1.0,
                               stribeck_velocity: float = 1.0) -> PlantConfig:
@@ -43,11 +50,15 @@ class PlantConfig:
         return replace(self, friction=P.NOMINAL_FRICTION, quantise=False, noise=False)
 
     def to_json(self) -> dict:
-        return asdict(self)
+        doc = asdict(replace(self, effects=None))
+        doc["effects"] = self.effects.to_dict() if self.effects is not None else None
+        return doc
 
     @classmethod
     def from_json(cls, data: dict) -> PlantConfig:
-        known = {"friction", "armature_kg_m2", "sensors", "quantise", "noise"}
+        if data.get("schema") == EFFECTS_SCHEMA:  # a gap workflow plant.json: nominal model + effects
+            return cls(friction=P.NOMINAL_FRICTION, effects=PlantEffects.from_dict(data))
+        known = {"friction", "armature_kg_m2", "sensors", "quantise", "noise", "effects"}
         unknown = set(data) - known
         if unknown:
             raise ValueError(f"unknown plant keys {sorted(unknown)}; expected some of {sorted(known)}")
@@ -56,8 +67,14 @@ class PlantConfig:
             kwargs["friction"] = P.StribeckParams(**kwargs["friction"])
         if "sensors" in kwargs:
             kwargs["sensors"] = P.SensorParams(**kwargs["sensors"])
+        if kwargs.get("effects") is not None:
+            kwargs["effects"] = PlantEffects.from_dict(kwargs["effects"])
         return cls(**kwargs)
 
     @classmethod
     def load(cls, path: Path) -> PlantConfig:
-        return cls.from_json(json.loads(Path(path).read_text()))
+        """Read a PlantConfig JSON or a plant-effects file; errors name the file."""
+        try:
+            return cls.from_json(json.loads(Path(path).read_text()))
+        except (OSError, ValueError, TypeError) as exc:
+            raise ValueError(f"{path}: not a usable plant file: {exc}") from exc
