@@ -39,7 +39,7 @@ class ImuConfig:
     q1_bias_rad: float = 0.0
     dq1_bias_rad_s: float = 0.0
     delay_steps: int = 1
-    accel_filter_hz: float = 50.0
+    accel_filter_hz: float = 20.0
 
 
 @dataclass(frozen=True)
