@@ -42,7 +42,8 @@ def test_rigid_spine_baseline_bounds_and_stays_rigid():
 
 
 def test_soft_spine_corner_bounds():
-    cfg = BoundConfig(duration_s=2.0, spine=SpineGains(k=(300.0, 1000.0, 15.0), d=(2.0, 20.0, 0.3)), settle_s=0.2)
+    soft = SpineGains(k=(300.0, 1000.0, 15.0), d=(2.0, 20.0, 0.3))
+    cfg = BoundConfig(duration_s=2.0, spine=soft, settle_s=0.2)
     assert not run_bound(cfg).metrics["fell"]
 
 
@@ -63,3 +64,16 @@ def test_outputs_written(bound3, tmp_path):
     names = {p.name for p in paths}
     assert {"metrics.json", "timeseries.csv", "gait_diagram.png", "body_pitch.png", "spine_task_space.png",
             "torques.png"} <= names
+
+
+@pytest.mark.slow
+def test_twenty_second_stability_grid():
+    import importlib.util
+    from pathlib import Path
+
+    script = Path(__file__).parent.parent / "bench" / "bound_grid.py"
+    spec = importlib.util.spec_from_file_location("bound_grid", script)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    rows = mod.grid(20.0)
+    assert not [r for r in rows if r["fell"]]
