@@ -33,14 +33,18 @@ class BoundParams:
     duty: float = 0.45  # stance fraction of each pair
     phase_offset: float = 0.5  # front stance starts this fraction of a stride after the hind
     speed_m_s: float = 0.6  # target forward speed (stride length = speed / frequency)
-    step_height_m: float = 0.05
+    step_height_m: float = 0.07
     height_m: float = 0.22  # hip height above the ground (foot centre), target
     raibert_gain_s: float = 0.1  # k_v of the touchdown law, s
+    speed_ki: float = 1.0  # integral gain on the speed error (offsets the commanded speed), 1/s
+    speed_int_max: float = 0.6  # m/s
     speed_gain: float = 15.0  # stance horizontal force per unit mass per (m/s) of speed error, 1/s
     height_kp: float = 600.0  # stance tracking of the hip-height reference, per unit mass, 1/s^2
     height_kd: float = 30.0  # 1/s
     pitch_kp: float = 0.0  # pitch moment per rad of the hip line's pitch, N*m/rad (via stance forces)
     pitch_kd: float = 0.0
+    body_kp: float = 6.0  # stance hip torque per rad of body pitch relative to the hip line, N*m/rad
+    body_kd: float = 0.3  # N*m*s/rad
     roll_kp: float = 80.0  # left/right force difference per rad of roll, N/rad
     roll_kd: float = 4.0
     yaw_kp: float = 40.0
@@ -107,6 +111,7 @@ class BoundController:
         self.liftoff: dict[str, tuple[float, float] | None] = dict.fromkeys(self.legs)
         self.in_stance = dict.fromkeys(self.legs, True)
         self.v_target = 0.0
+        self.v_int = 0.0
         self.phase = 0.0
         self.out = {k: (0.0, 0.0, 0.0) for k in self.legs}
         self.stance_flags = dict.fromkeys(self.PAIRS, True)
@@ -177,8 +182,9 @@ class BoundController:
         d_roll = p.roll_kp * roll + p.roll_kd * wx
         d_yaw = p.yaw_kp * (yaw - yaw_d) + p.yaw_kd * wz
         kin = {}
+        body = {}
         for pair, (left, _) in self.PAIRS.items():
-            bx, bz, phi, _ = self._pair_body(pair)
+            bx, bz, phi, dphi = self._pair_body(pair)
             c, s = math.cos(phi), math.sin(phi)
             hip_bx = self.lx[left]
             hx = bx + c * hip_bx
@@ -188,6 +194,7 @@ class BoundController:
             vz = self.hip_vz[pair]((hz - prev[1]) / self.dt)
             self._prev_hip[pair] = (hx, hz)
             kin[pair] = (c, s, hx, hz, vx, vz)
+            body[pair] = (phi, dphi)
         # attitude of the whole robot: the line through the hind and front hips
         _, _, hx_h, hz_h, vx_h, vz_h = kin["hind"]
         _, _, hx_f, hz_f, vx_f, vz_f = kin["front"]
@@ -199,7 +206,11 @@ class BoundController:
         tau_pitch = -(p.pitch_kp * (pitch + self.slope) + p.pitch_kd * dpitch)
         com_x = hx_h + self.share["front"] * (hx_f - hx_h)
         v_mean = 0.5 * (vx_h + vx_f)
-        self.speed_f(v_mean)
+        v_avg = self.speed_f(v_mean)
+        if running and p.speed_ki > 0.0:  # integral action on the stride-averaged speed
+            self.v_int += p.speed_ki * (self.v_target - v_avg) * self.dt
+            self.v_int = max(-p.speed_int_max, min(p.speed_int_max, self.v_int))
+        v_d = self.v_target + self.v_int
         for pair, (left, right) in self.PAIRS.items():
             c, s, hx, hz, vx, vz = kin[pair]
             height = hz - hx * tan_s  # above the ground along gravity
@@ -234,6 +245,10 @@ class BoundController:
                     ez = -(s * fx + c * fz)
                     tau_h = j11 * ex + j21 * ez
                     tau_k = j12 * ex + j22 * ez
+                    # Raibert's stance attitude servo, per body: the hip torque's reaction turns the body
+                    # toward the hip line's pitch (the bound's own pitching is left alone).
+                    phi_b, dphi_b = body[pair]
+                    tau_h += 0.5 * (p.body_kp * (phi_b - pitch) + p.body_kd * (dphi_b - dpitch))
                     self.liftoff[leg] = None
                 else:
                     # foot target relative to the hip, world-aligned axes
@@ -242,7 +257,7 @@ class BoundController:
                     if self.liftoff[leg] is None:
                         self.liftoff[leg] = (c * fx_b + s * fz_b, -s * fx_b + c * fz_b)
                     x_lo, z_lo = self.liftoff[leg]
-                    x_td = vx * t_stance / 2.0 + p.raibert_gain_s * (vx - v_d)
+                    x_td = vx * t_stance / 2.0 + p.raibert_gain_s * (vx - self.v_target)
                     x_td = max(-0.12, min(0.12, x_td))
                     blend = 0.5 * (1.0 - math.cos(math.pi * sw_frac))
                     tx = x_lo + (x_td - x_lo) * blend
