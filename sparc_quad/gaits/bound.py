@@ -44,7 +44,7 @@ class BoundParams:
     pitch_kp: float = 0.0  # pitch moment per rad of the hip line's pitch, N*m/rad (via stance forces)
     pitch_kd: float = 0.0
     body_kp: float = 6.0  # stance hip torque per rad of body pitch relative to the hip line, N*m/rad
-    body_kd: float = 0.3  # N*m*s/rad
+    body_kd: float = 0.6  # N*m*s/rad
     roll_kp: float = 80.0  # left/right force difference per rad of roll, N/rad
     roll_kd: float = 4.0
     yaw_kp: float = 40.0
