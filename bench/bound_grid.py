@@ -19,7 +19,7 @@ from spine_module import params as P
 
 KX = (300.0, 700.0, 1100.0, 1500.0)
 DX = (2.0, 20.0, 40.0)
-SPEEDS = (0.5, 0.9)
+SPEEDS = (0.3, 0.6, 0.9)
 
 
 def grid(duration: float) -> list[dict]:

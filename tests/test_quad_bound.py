@@ -77,3 +77,24 @@ def test_twenty_second_stability_grid():
     spec.loader.exec_module(mod)
     rows = mod.grid(20.0)
     assert not [r for r in rows if r["fell"]]
+
+
+def test_cli_bound_writes_outputs(tmp_path, capsys):
+    from sparc_quad.cli import main
+
+    argv = ["bound", "--duration", "1.5", "--kx", "800", "--dx", "10", "--speed", "0.4"]
+    argv += ["--out", str(tmp_path)]
+    rc = main(argv)
+    assert rc == 0
+    import json
+
+    m = json.loads((tmp_path / "metrics.json").read_text())
+    assert m["config"]["spine"]["k"][0] == 800.0 and m["config"]["gait"]["speed_m_s"] == 0.4
+    assert (tmp_path / "timeseries.csv").read_text().startswith("t,x,y,z")
+
+
+def test_cli_lcm_says_what_is_missing(tmp_path, capsys):
+    from sparc_quad.cli import main
+
+    assert main(["bound", "--lcm", "--duration", "0.1", "--out", str(tmp_path)]) == 2
+    assert "issue 3" in capsys.readouterr().out

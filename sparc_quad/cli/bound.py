@@ -57,7 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="stride length, m; sets the target speed to stride * frequency (overrides --speed)",
     )
     p.add_argument("--step-height", type=float, default=g.step_height_m, help="swing foot clearance, m")
-    p.add_argument("--duty", type=float, default=g.duty, help="stance fraction of each leg pair")
+    p.add_argument("--duty", type=float, default=None,
+                   help="stance fraction of each leg pair (default: 0.5 at <= 0.3 m/s to 0.45 at >= 0.6 m/s)")
     p.add_argument(
         "--slope", type=float, default=0.0, help="ground slope, rad; > 0 uphill (default %(default)s)"
     )

@@ -30,7 +30,10 @@ from spine_module import params as P
 @dataclass(frozen=True)
 class BoundParams:
     frequency_hz: float = 4.0  # stride frequency
-    duty: float = 0.45  # stance fraction of each pair
+    duty: float | None = None  # stance fraction of each pair; None: scheduled on speed (below)
+    duty_slow: float = 0.5  # duty at and below `duty_speeds[0]`
+    duty_fast: float = 0.45  # duty at and above `duty_speeds[1]` (duty falls with speed, as in animals)
+    duty_speeds: tuple[float, float] = (0.3, 0.6)  # m/s
     phase_offset: float = 0.5  # front stance starts this fraction of a stride after the hind
     speed_m_s: float = 0.6  # target forward speed (stride length = speed / frequency)
     step_height_m: float = 0.07
@@ -57,6 +60,13 @@ class BoundParams:
     friction_use: float = 0.6  # horizontal/vertical stance force ratio allowed
     start_s: float = 0.3  # stand still this long before the first stride
     accel_m_s2: float = 0.5  # target speed ramps up at this rate
+
+    def duty_at(self, speed_m_s: float) -> float:
+        if self.duty is not None:
+            return self.duty
+        lo, hi = self.duty_speeds
+        f = min(1.0, max(0.0, (abs(speed_m_s) - lo) / (hi - lo))) if hi > lo else 1.0
+        return self.duty_slow + f * (self.duty_fast - self.duty_slow)
 
     def with_stride(self, stride_m: float) -> BoundParams:
         """Same gait, target speed set from a stride length at the current frequency."""
@@ -112,6 +122,7 @@ class BoundController:
         self.in_stance = dict.fromkeys(self.legs, True)
         self.v_target = 0.0
         self.v_int = 0.0
+        self.duty = self.p.duty_at(0.0)
         self.phase = 0.0
         self.out = {k: (0.0, 0.0, 0.0) for k in self.legs}
         self.stance_flags = dict.fromkeys(self.PAIRS, True)
@@ -136,7 +147,7 @@ class BoundController:
         """Fraction of the stance elapsed, or None in flight."""
         start = 0.0 if pair == "hind" else self.p.phase_offset
         s = (phase - start) % 1.0
-        return s / self.p.duty if s < self.p.duty else None
+        return s / self.duty if s < self.duty else None
 
     def stance_reference(self, frac: float) -> tuple[float, float, float]:
         """Hip height, its rate and acceleration (net of gravity) over a stance, fraction `frac` elapsed.
@@ -148,7 +159,7 @@ class BoundController:
         p = self.p
         g = P.GRAVITY_M_S2
         period = 1.0 / p.frequency_hz
-        ts = p.duty * period
+        ts = self.duty * period
         tf = period - ts
         a = math.pi * g * period / (2.0 * ts)
         tau = frac * ts
@@ -173,8 +184,9 @@ class BoundController:
             )
             self.phase = ((t - p.start_s) * p.frequency_hz) % 1.0
         v_d = self.v_target
+        self.duty = p.duty_at(self.v_target)
         period = 1.0 / p.frequency_hz
-        t_stance = p.duty * period
+        t_stance = self.duty * period
         roll, yaw = w.roll, w.yaw
         wx, _, wz = w.base_omega
         yaw_d = -p.lateral_gain * w.base_pos[1]
@@ -252,8 +264,8 @@ class BoundController:
                     self.liftoff[leg] = None
                 else:
                     # foot target relative to the hip, world-aligned axes
-                    sw = (self.phase - (0.0 if pair == "hind" else p.phase_offset) - p.duty) % 1.0
-                    sw_frac = min(1.0, sw / (1.0 - p.duty))
+                    sw = (self.phase - (0.0 if pair == "hind" else p.phase_offset) - self.duty) % 1.0
+                    sw_frac = min(1.0, sw / (1.0 - self.duty))
                     if self.liftoff[leg] is None:
                         self.liftoff[leg] = (c * fx_b + s * fz_b, -s * fx_b + c * fz_b)
                     x_lo, z_lo = self.liftoff[leg]
