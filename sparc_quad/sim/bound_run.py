@@ -190,12 +190,14 @@ def run_bound(
             i = n
     finally:
         wall = time.perf_counter() - t0
+        physics_wall = world.physics_wall_s
         mass = world.total_mass
         world.close()
         spine.close()
     series = log[:i]
     metrics = compute_metrics(series, cfg, mass, fell, fall_t, reason)
     metrics["wall_time_s"] = wall
+    metrics["physics_wall_time_s"] = physics_wall
     metrics["spine_driver"] = getattr(getattr(spine, "drive", None), "name", type(spine).__name__)
     return BoundResult(cfg, metrics, series, wall, frames)
 

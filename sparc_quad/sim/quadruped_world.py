@@ -13,6 +13,7 @@ from __future__ import annotations
 import collections
 import json
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -185,6 +186,7 @@ class QuadrupedWorld:
         self.t = 0.0
         self.steps = 0
         self._tau = [0.0] * len(self.movable)
+        self.physics_wall_s = 0.0  # wall time spent inside stepSimulation (for the co-simulation bench)
         self.reset_stand()
 
     # ---- set-up ---------------------------------------------------------------------------------------
@@ -328,7 +330,9 @@ class QuadrupedWorld:
         pb.setJointMotorControlArray(
             self.robot, self.movable, pb.TORQUE_CONTROL, forces=self._tau, physicsClientId=self.client
         )
+        t0 = time.perf_counter()
         pb.stepSimulation(physicsClientId=self.client)
+        self.physics_wall_s += time.perf_counter() - t0
         self.steps += 1
         self.t = self.steps * self.cfg.dt_s
         self.read()
