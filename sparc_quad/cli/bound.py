@@ -75,7 +75,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--seed", type=int, default=0, help="seed of every random number in the run")
     p.add_argument("--host", default="solo12", help="host robot (robots/sparc_<host>)")
-    p.add_argument("--lcm", action="store_true", help="spine node over LCM (lockstep co-simulation)")
+    p.add_argument("--spine", choices=["direct", "node"], default="direct",
+                   help="direct: the impedance controller called in this process (fastest); node: the spine "
+                        "node in this process on the in-process bus (the reference for --lcm)")
+    p.add_argument("--lcm", action="store_true",
+                   help="the spine node is another process (`sparc-quad spine-node --motors lcm`), over LCM; "
+                        "lockstep unless --realtime")
+    p.add_argument("--lcm-url", default="", help="LCM URL (default: LCM's default)")
+    p.add_argument("--wait-node", type=float, default=30.0,
+                   help="--lcm: wait this long (wall s) for the node's first heartbeat "
+                        "(default: %(default)s)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--out", type=Path, default=Path("out/bound"), help="output folder (default %(default)s)")
     p.add_argument("--video", action="store_true", help="also render bound.gif (pybullet ER_TINY_RENDERER)")
@@ -105,27 +114,28 @@ def config_from_args(args: argparse.Namespace) -> BoundConfig:
 
 def run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
-    if args.lcm:
-        print(
-            "--lcm: the spine node (issue 3) is not on main yet; the LCM co-simulation path is not wired. "
-            "Run without --lcm for the in-process spine controller."
-        )
+    spine = None
+    if args.rigid_spine and (args.lcm or args.spine == "node"):
+        print("--rigid-spine is the hypothetical rigid robot: it does not use the spine node")
         return 2
-    result = run_bound(cfg, video=args.video)
+    if args.lcm:
+        from sparc_quad.sim.quad_node_link import NodeSpine
+
+        try:
+            spine = NodeSpine.over_lcm(cfg.spine, cfg.friction_compensation, url=args.lcm_url,
+                                       lockstep=not args.realtime, wait_node_s=args.wait_node)
+        except TimeoutError as exc:
+            print(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` first")
+            return 2
+    elif args.spine == "node":
+        from sparc_quad.sim.quad_node_link import NodeSpine
+
+        spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation)
+    result = run_bound(cfg, spine=spine, video=args.video)
     paths = write_outputs(result, args.out)
     m = result.metrics
-    summary = {
-        k: m.get(k)
-        for k in (
-            "fell",
-            "fall_time_s",
-            "mean_speed_m_s",
-            "cost_of_transport",
-            "stride_frequency_hz",
-            "stride_length_m",
-            "peak_spine_torque_nm",
-        )
-    }
+    summary = {k: m.get(k) for k in ("fell", "fall_time_s", "mean_speed_m_s", "cost_of_transport",
+                                      "stride_frequency_hz", "stride_length_m", "peak_spine_torque_nm")}
     print(json.dumps(summary, indent=2))
     for path in paths:
         print(f"wrote {path}")

@@ -77,6 +77,7 @@ class BoundResult:
     series: np.ndarray  # (steps, len(COLUMNS))
     wall_s: float
     frames: list = field(default_factory=list)
+    node_states: dict | None = None  # the spine node's states (node and LCM paths)
 
     def column(self, name: str) -> np.ndarray:
         return self.series[:, COLUMNS.index(name)]
@@ -199,7 +200,8 @@ def run_bound(
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
     metrics["spine_driver"] = getattr(getattr(spine, "drive", None), "name", type(spine).__name__)
-    return BoundResult(cfg, metrics, series, wall, frames)
+    node_states = spine.states_arrays() if hasattr(spine, "states_arrays") else None
+    return BoundResult(cfg, metrics, series, wall, frames, node_states)
 
 
 def _touchdowns(contact: np.ndarray) -> np.ndarray:
@@ -304,7 +306,7 @@ def write_outputs(result: BoundResult, out: Path) -> list[Path]:
     p.write_text(json.dumps(metrics, indent=2, default=float) + "\n")
     paths.append(p)
     p = out / "timeseries.csv"
-    np.savetxt(p, result.series, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.6g")
+    np.savetxt(p, result.series, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.9g")
     paths.append(p)
     s = result.series
     t = result.column("t")
@@ -346,6 +348,10 @@ def write_outputs(result: BoundResult, out: Path) -> list[Path]:
     ax.legend(loc="upper right")
     fig.tight_layout()
     paths.append(_save(fig, out / "torques.png"))
+    if result.node_states:
+        p = out / "node_states.npz"
+        np.savez(p, **result.node_states)
+        paths.append(p)
     if result.frames:
         from matplotlib import animation
 
