@@ -93,8 +93,21 @@ def test_cli_bound_writes_outputs(tmp_path, capsys):
     assert (tmp_path / "timeseries.csv").read_text().startswith("t,x,y,z")
 
 
-def test_cli_lcm_says_what_is_missing(tmp_path, capsys):
+def test_cli_lcm_without_a_node_says_what_to_start(tmp_path, capsys):
     from sparc_quad.cli import main
 
-    assert main(["bound", "--lcm", "--duration", "0.1", "--out", str(tmp_path)]) == 2
-    assert "issue 3" in capsys.readouterr().out
+    # LCM's default URL needs a multicast route; memq:// is in-process and has no node on it
+    argv = ["bound", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.2", "--out", str(tmp_path)]
+    assert main(argv) == 2
+    assert "spine-node --motors lcm" in capsys.readouterr().out
+    assert main(["bound", "--lcm", "--rigid-spine", "--out", str(tmp_path)]) == 2
+
+
+def test_node_in_process_bounds_and_runs_on_the_estimate():
+    from sparc_quad.sim.quad_node_link import NodeSpine
+
+    cfg = BoundConfig(duration_s=1.5, settle_s=0.2)
+    r = run_bound(cfg, spine=NodeSpine.inprocess(cfg.spine))
+    assert not r.metrics["fell"] and r.metrics["spine_driver"] == "node"
+    np.testing.assert_array_equal(r.node_states["node_q"][:, 0], r.column("q1_est"))
+    assert not r.node_states["node_faults"].any()
