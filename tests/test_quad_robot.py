@@ -51,3 +51,15 @@ def test_hip_spacing_equals_host_at_equilibrium():
     front = meta["legs"]["FL"]["hip_x_m"] + P.X_EQUILIBRIUM[0] - meta["front_body_length_m"]
     assert front - meta["legs"]["HL"]["hip_x_m"] == pytest.approx(0.3892, abs=1e-6)  # Solo12: 2 x 0.1946
     assert meta["q_equilibrium"] == pytest.approx(list(P.Q_EQUILIBRIUM))
+
+
+def test_second_host_stands_in_the_world():
+    from sparc_quad.gaits.bound import BoundParams
+    from sparc_quad.sim.bound_run import BoundConfig, run_bound
+    from sparc_quad.sim.quadruped_world import WorldConfig
+
+    cfg = BoundConfig(duration_s=1.0, world=WorldConfig(host="a1"), gait=BoundParams(start_s=10.0),
+                      rigid_spine=True, settle_s=0.0)
+    r = run_bound(cfg)
+    assert not r.metrics["fell"]
+    assert r.column("z")[-1] == pytest.approx(0.22 + 0.02, abs=0.04)  # hips near the stand height
