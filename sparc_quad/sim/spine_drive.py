@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -80,56 +79,8 @@ class ImpedanceSpine:
         return self.tau
 
 
-class PlanarImpedanceSpine:
-    """Stand-in until `spine_module.control` is available: tau = J^T (K (x_d - x) - D dx) on the planar
-    chain, no dynamics compensation. Same gains and task pose as the SPARC impedance controller."""
-
-    name = "planar-impedance"
-
-    def __init__(self, gains: SpineGains):
-        self.k = gains.k
-        self.d = gains.d
-        self.x_d = tuple(float(v) for v in P.X_EQUILIBRIUM)
-        self.tau = np.zeros(3)
-        self.x = np.zeros(3)
-        self.dx = np.zeros(3)
-        self.ok = True
-        self.limit = P.TORQUE_LIMIT_NM
-
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
-        hb, hs, fs, fb = P.DEFAULT_SPINE.links
-        pts = [(hb.length_m, 0.0)]  # joint axes q2, q3, q4 then the tip, hind body frame
-        a = 0.0
-        for qi, link in ((q[1], hs), (q[2], fs), (q[3], fb)):
-            a += qi
-            x, z = pts[-1]
-            pts.append((x + link.length_m * math.cos(a), z - link.length_m * math.sin(a)))
-        ex, ez = pts[-1]
-        jac = [[ez - pts[i][1], -(ex - pts[i][0]), 1.0] for i in range(3)]  # columns: d(x, z, th)/dq_i
-        dx = [sum(jac[i][r] * dq[i + 1] for i in range(3)) for r in range(3)]
-        pose = (ex, ez, a)
-        f = [self.k[r] * (self.x_d[r] - pose[r]) - self.d[r] * dx[r] for r in range(3)]
-        for i in range(3):
-            t = jac[i][0] * f[0] + jac[i][1] * f[1] + jac[i][2] * f[2]
-            self.tau[i] = max(-self.limit, min(self.limit, t))
-        self.x[:] = pose
-        self.dx[:] = dx
-        return self.tau
-
-
 def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = False):
-    """The drive a bound uses: rigid PD, else the SPARC impedance controller (or its stand-in)."""
+    """The drive a bound uses: rigid PD, else the SPARC impedance controller."""
     if rigid:
         return RigidSpine()
-    if impedance_available():
-        return ImpedanceSpine(gains, friction=friction)
-    return PlanarImpedanceSpine(gains)
-
-
-def impedance_available() -> bool:
-    """True when this checkout's `spine_module` has the model and control packages (an editable install
-    elsewhere must not lend them)."""
-    import spine_module
-
-    root = Path(spine_module.__file__).resolve().parent
-    return (root / "model.py").exists() and (root / "control" / "__init__.py").exists()
+    return ImpedanceSpine(gains, friction=friction)
