@@ -11,7 +11,7 @@ import importlib
 import logging
 import sys
 
-COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node", "motors", "gap")
+COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node", "motors", "gap", "bound")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,125 @@
+"""Wall time of a 10 s bound in process against raw pybullet stepping of the same model, in one run.
+
+    python bench/cosim.py --json out/bench/cosim.json [--repeat 3]
+
+Three figures, each the best of `--repeat` runs:
+- raw: `stepSimulation` of the model for the same simulated time with zero torques (the robot collapses
+  onto the ground, so its contacts differ from a bound's);
+- physics share: the time spent inside `stepSimulation` during the bound itself (same contacts);
+- in process: the whole bound (estimator, impedance controller, leg controller, logging, stepping).
+- node in process: the same bound with the spine node ticked in this process (in-process bus);
+- LCM lockstep: `sparc-quad bound --lcm` and `sparc-quad spine-node --motors lcm --clock lockstep` as two
+  processes on UDP multicast inside a private network namespace (skipped where one cannot be made); its
+  figure is the bound's own wall time as the robot process measured it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pybullet as pb
+
+from sparc_quad.sim.bound_run import BoundConfig, run_bound
+from sparc_quad.sim.quad_node_link import NodeSpine
+from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
+
+ROOT = Path(__file__).resolve().parents[1]
+NETNS_SETUP = "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo\n"
+
+
+def lcm_lockstep(duration_s: float) -> tuple[float | None, str]:
+    """Wall time of the bound over LCM lockstep (robot and node in separate processes), or None + why."""
+    if shutil.which("unshare") is None or shutil.which("ip") is None:
+        return None, "no unshare/ip here"
+    py = shlex.quote(sys.executable)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = shlex.quote(tmp)
+        script = (f"set -e\n{NETNS_SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}\n"
+                  f"{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 "
+                  f"> {out}/node.out 2> {out}/node.err &\nNODE=$!\n"
+                  f"{py} -m sparc_quad bound --lcm --duration {duration_s} --out {out} > {out}/robot.out "
+                  f"2> {out}/robot.err\nwait $NODE\n")
+        for prefix in (("unshare", "-rn"), ("unshare", "-n")):
+            r = subprocess.run([*prefix, "sh", "-c", script], capture_output=True, text=True, timeout=900)
+            metrics = Path(tmp) / "metrics.json"
+            if r.returncode == 0 and metrics.exists():
+                return float(json.loads(metrics.read_text())["wall_time_s"]), "ok"
+        return None, f"netns run failed: {r.stderr[-500:]}"
+
+
+def raw_stepping(duration_s: float) -> float:
+    world = QuadrupedWorld(WorldConfig())
+    n = round(duration_s / world.cfg.dt_s)
+    zeros = [0.0] * len(world.movable)
+    t0 = time.perf_counter()
+    for _ in range(n):
+        pb.setJointMotorControlArray(world.robot, world.movable, pb.TORQUE_CONTROL, forces=zeros,
+                                     physicsClientId=world.client)
+        pb.stepSimulation(physicsClientId=world.client)
+    wall = time.perf_counter() - t0
+    world.close()
+    return wall
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--json", type=Path, required=True)
+    ap.add_argument("--duration", type=float, default=10.0)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--no-lcm", action="store_true", help="skip the LCM lockstep leg")
+    args = ap.parse_args()
+    raws, bounds, physics, nodes, lcms = [], [], [], [], []
+    fell = False
+    note = "skipped (--no-lcm)"
+    for _ in range(args.repeat):
+        raws.append(raw_stepping(args.duration))
+        cfg = BoundConfig(duration_s=args.duration)
+        res = run_bound(cfg)
+        bounds.append(res.wall_s)
+        physics.append(res.metrics["physics_wall_time_s"])
+        fell |= res.metrics["fell"]
+        res = run_bound(cfg, spine=NodeSpine.inprocess(cfg.spine))
+        nodes.append(res.wall_s)
+        fell |= res.metrics["fell"]
+        if not args.no_lcm:
+            wall, note = lcm_lockstep(args.duration)
+            if wall is not None:
+                lcms.append(wall)
+    raw, inproc, phys = min(raws), min(bounds), min(physics)
+    node = min(nodes)
+    lcm_wall = min(lcms) if lcms else None
+    out = {
+        "sim_s": args.duration,
+        "repeat": args.repeat,
+        "raw_zero_torque_wall_s": raw,
+        "bound_physics_only_wall_s": phys,
+        "in_process_bound_wall_s": inproc,
+        "in_process_vs_raw_zero_torque": raw / inproc,
+        "in_process_vs_physics_only": phys / inproc,
+        "in_process_real_time_factor": args.duration / inproc,
+        "node_in_process_wall_s": node,
+        "node_in_process_vs_raw_zero_torque": raw / node,
+        "lcm_lockstep_wall_s": lcm_wall,
+        "lcm_lockstep_vs_raw_zero_torque": raw / lcm_wall if lcm_wall else None,
+        "lcm_lockstep_real_time_factor": args.duration / lcm_wall if lcm_wall else None,
+        "lcm_note": note,
+        "bound_fell": fell,
+        "all_runs_s": {"raw": raws, "in_process": bounds, "physics_only": physics, "node_in_process": nodes,
+                       "lcm_lockstep": lcms},
+    }
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(out, indent=2) + "\n")
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""Leg controllers for the spined quadruped (simulation side)."""

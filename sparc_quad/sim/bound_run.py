@@ -1,0 +1,380 @@
+"""Run one bound of the spined quadruped and measure it.
+
+`run_bound(BoundConfig(...))` is a pure function of its configuration (its own pybullet client, its own
+seeded generator, no files written): the stiffness study fans these out. `write_outputs` turns a result
+into metrics.json, a CSV time series and PNG plots.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sparc_quad.gaits.bound import BoundController, BoundParams
+from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
+from sparc_quad.sim.spine_drive import SpineGains, make_spine_drive
+
+COLUMNS = (
+    "t",
+    "x",
+    "y",
+    "z",
+    "q1_true",
+    "dq1_true",
+    "q1_est",
+    "dq1_est",
+    "ddq1_est",
+    "pitch_front",
+    "roll",
+    "yaw",
+    "q2",
+    "q3",
+    "q4",
+    "dq2",
+    "dq3",
+    "dq4",
+    "tau2",
+    "tau3",
+    "tau4",
+    "spine_x",
+    "spine_z",
+    "spine_theta",
+    "contact_HL",
+    "contact_HR",
+    "contact_FL",
+    "contact_FR",
+    "stance_hind",
+    "stance_front",
+    "leg_power_w",
+    "spine_power_w",
+    "leg_tau_max",
+)
+
+
+@dataclass(frozen=True)
+class BoundConfig:
+    duration_s: float = 10.0
+    gait: BoundParams = field(default_factory=BoundParams)
+    world: WorldConfig = field(default_factory=WorldConfig)
+    spine: SpineGains = field(default_factory=SpineGains)
+    rigid_spine: bool = False
+    friction_compensation: bool = False
+    stop_on_fall: bool = True
+    realtime: bool = False  # pace the loop to the wall clock (the robot's real-time mode)
+    settle_s: float = 2.0  # metrics skip the start-up (stand, speed ramp) plus this
+
+
+@dataclass
+class BoundResult:
+    config: BoundConfig
+    metrics: dict
+    series: np.ndarray  # (steps, len(COLUMNS))
+    wall_s: float
+    frames: list = field(default_factory=list)
+    node_states: dict | None = None  # the spine node's states (node and LCM paths)
+
+    def column(self, name: str) -> np.ndarray:
+        return self.series[:, COLUMNS.index(name)]
+
+
+class SpineInProcess:
+    """The spine controller called in the sim process (the `--lcm` path swaps this for a bridge)."""
+
+    def __init__(self, cfg: BoundConfig):
+        self.drive = make_spine_drive(cfg.spine, rigid=cfg.rigid_spine, friction=cfg.friction_compensation)
+        self._q = np.zeros(4)
+        self._dq = np.zeros(4)
+
+    def __call__(self, est, q_spine, dq_spine, t: float):
+        q, dq = self._q, self._dq
+        q[0], dq[0] = est.q1, est.dq1
+        q[1:] = q_spine
+        dq[1:] = dq_spine
+        return self.drive.step(q, dq, est.ddq1)
+
+    @property
+    def task_pose(self):
+        return self.drive.x
+
+    def close(self) -> None:
+        pass
+
+
+def fall_reason(world: QuadrupedWorld, pitch_front: float) -> str | None:
+    slope = world.cfg.slope_rad
+    if world.body_contact:
+        return "body touched the ground"
+    if abs(world.q1 + slope) > 1.0 or abs(pitch_front + slope) > 1.0:
+        return "pitch beyond 1 rad"
+    if abs(world.roll) > 0.8:
+        return "roll beyond 0.8 rad"
+    return None
+
+
+VIDEO_FPS = 25
+
+
+def run_bound(
+    cfg: BoundConfig,
+    spine=None,
+    on_frame: Callable | None = None,
+    frame_every_s: float = 0.0,
+    video: bool = False,
+) -> BoundResult:
+    """Simulate `cfg.duration_s` of bounding. `spine(est, q_spine, dq_spine, t) -> tau (3,)` defaults to
+    the in-process controller. `on_frame(world)` is called every `frame_every_s`; `video` collects frames
+    from pybullet's software renderer at VIDEO_FPS."""
+    frames: list = []
+    if video:
+        on_frame, frame_every_s = (lambda w: frames.append(w.render())), 1.0 / VIDEO_FPS
+    world = QuadrupedWorld(cfg.world)
+    spine = spine if spine is not None else SpineInProcess(cfg)
+    gait = BoundController(world, cfg.gait)
+    dt = cfg.world.dt_s
+    n = round(cfg.duration_s / dt)
+    log = np.zeros((n, len(COLUMNS)))
+    frame_every = round(frame_every_s / dt) if frame_every_s > 0 else 0
+    fell, fall_t, reason = False, None, None
+    legs_order = ("HL", "HR", "FL", "FR")
+    t0 = time.perf_counter()
+    i = 0
+    try:
+        for i in range(n):
+            t = world.t
+            est = world.estimate()
+            tau_s = spine(est, world.q_spine, world.dq_spine, t)
+            leg_tau = gait.step(t)
+            world.set_torques(tau_s, leg_tau)
+            # log the state the torques were computed from
+            pitch_front = world.q1 + sum(world.q_spine)
+            row = log[i]
+            row[0] = t
+            row[1:4] = world.base_pos
+            row[4:12] = (world.q1, world.dq1, est.q1, est.dq1, est.ddq1, pitch_front, world.roll, world.yaw)
+            row[12:15] = world.q_spine
+            row[15:18] = world.dq_spine
+            row[18:21] = tau_s
+            row[21:24] = spine.task_pose
+            row[24:28] = [world.contact_force[k] > 0.0 for k in legs_order]
+            row[28] = gait.stance_flags["hind"]
+            row[29] = gait.stance_flags["front"]
+            leg_p = 0.0
+            leg_m = 0.0
+            for k in legs_order:
+                st = world.leg_state(k)
+                ta = leg_tau[k]
+                leg_p += abs(ta[0] * st.dhaa) + abs(ta[1] * st.dhfe) + abs(ta[2] * st.dkfe)
+                leg_m = max(leg_m, abs(ta[1]), abs(ta[2]))
+            row[30] = leg_p
+            row[31] = sum(abs(a * b) for a, b in zip(tau_s, world.dq_spine, strict=True))
+            row[32] = leg_m
+            if frame_every and i % frame_every == 0 and on_frame is not None:
+                on_frame(world)
+            world.step()
+            if cfg.realtime:
+                lag = t0 + world.t - time.perf_counter()
+                if lag > 0:
+                    time.sleep(lag)
+            reason = fall_reason(world, world.q1 + sum(world.q_spine))
+            if reason is not None and not fell:
+                fell, fall_t = True, world.t
+                if cfg.stop_on_fall:
+                    i += 1
+                    break
+        else:
+            i = n
+    finally:
+        wall = time.perf_counter() - t0
+        physics_wall = world.physics_wall_s
+        mass = world.total_mass
+        world.close()
+        spine.close()
+    series = log[:i]
+    metrics = compute_metrics(series, cfg, mass, fell, fall_t, reason)
+    metrics["wall_time_s"] = wall
+    metrics["physics_wall_time_s"] = physics_wall
+    metrics["spine_driver"] = getattr(getattr(spine, "drive", None), "name", type(spine).__name__)
+    node_states = spine.states_arrays() if hasattr(spine, "states_arrays") else None
+    return BoundResult(cfg, metrics, series, wall, frames, node_states)
+
+
+def _touchdowns(contact: np.ndarray) -> np.ndarray:
+    c = contact > 0.5
+    return np.flatnonzero(c[1:] & ~c[:-1]) + 1
+
+
+def compute_metrics(
+    s: np.ndarray, cfg: BoundConfig, mass: float, fell: bool, fall_t: float | None, reason: str | None
+) -> dict:
+    dt = cfg.world.dt_s
+    g = 9.81
+    col = {name: s[:, k] for k, name in enumerate(COLUMNS)}
+    gp = cfg.gait
+    ramp = abs(gp.speed_m_s) / gp.accel_m_s2 if gp.accel_m_s2 > 0 else 0.0
+    t_start = min(gp.start_s + ramp + cfg.settle_s, 0.5 * cfg.duration_s)
+    w = col["t"] >= t_start
+    out: dict = {
+        "fell": bool(fell),
+        "fall_time_s": fall_t,
+        "fall_reason": reason,
+        "duration_s": float(s[-1, 0] + dt) if len(s) else 0.0,
+        "window_s": [float(t_start), float(s[-1, 0]) if len(s) else 0.0],
+        "mass_kg": mass,
+        "slope_rad": cfg.world.slope_rad,
+        "target_speed_m_s": gp.speed_m_s,
+        "gait_frequency_hz": gp.frequency_hz,
+        "rigid_spine": cfg.rigid_spine,
+        "spine_k": list(cfg.spine.k),
+        "spine_d": list(cfg.spine.d),
+    }
+    if w.sum() < 10:
+        out["note"] = "too short for gait metrics"
+        return out
+    t = col["t"][w]
+    span = t[-1] - t[0] + dt
+    dist_x = col["x"][w][-1] - col["x"][w][0]
+    dist = dist_x / math.cos(cfg.world.slope_rad)  # along the ground
+    speed = dist / span
+    p_spine = col["spine_power_w"][w]
+    p_legs = col["leg_power_w"][w]
+    energy = float((p_spine.sum() + p_legs.sum()) * dt)
+    out["mean_speed_m_s"] = float(speed)
+    out["distance_m"] = float(dist)
+    out["cost_of_transport"] = energy / (mass * g * abs(dist)) if abs(dist) > 1e-6 else None
+    out["cost_of_transport_note"] = "sum over all 15 actuators of |tau * dq| integrated, / (m g distance)"
+    out["mean_power_w"] = {"legs": float(p_legs.mean()), "spine": float(p_spine.mean())}
+    tds = _touchdowns(col["contact_HL"][w])
+    if len(tds) >= 2:
+        freq = (len(tds) - 1) / ((tds[-1] - tds[0]) * dt)
+        out["stride_frequency_hz"] = float(freq)
+        out["stride_length_m"] = float(speed / freq)
+    else:
+        out["stride_frequency_hz"] = None
+        out["stride_length_m"] = None
+    out["duty_factor"] = {k: float(col[f"contact_{k}"][w].mean()) for k in ("HL", "HR", "FL", "FR")}
+
+    def amp(x: np.ndarray) -> float:
+        lo, hi = np.percentile(x, [2.5, 97.5])
+        return float(0.5 * (hi - lo))
+
+    out["pitch_amplitude_rad"] = {"hind": amp(col["q1_true"][w]), "front": amp(col["pitch_front"][w])}
+    out["pitch_mean_rad"] = {
+        "hind": float(col["q1_true"][w].mean()),
+        "front": float(col["pitch_front"][w].mean()),
+    }
+    out["spine_excursion"] = {
+        name: {
+            "min": float(col[f"spine_{name}"][w].min()),
+            "max": float(col[f"spine_{name}"][w].max()),
+            "range": float(np.ptp(col[f"spine_{name}"][w])),
+            "std": float(col[f"spine_{name}"][w].std()),
+        }
+        for name in ("x", "z", "theta")
+    }
+    tau = np.abs(s[:, 18:21])
+    out["peak_spine_torque_nm"] = float(tau[w].max())
+    out["peak_spine_torque_per_joint_nm"] = [float(v) for v in tau[w].max(axis=0)]
+    out["spine_saturation_fraction"] = float((tau[w] >= 11.999).any(axis=1).mean())
+    out["peak_spine_power_w"] = float(p_spine.max())
+    out["peak_leg_torque_nm"] = float(col["leg_tau_max"][w].max())
+    out["lateral_drift_m"] = float(col["y"][-1])
+    return out
+
+
+def config_dict(cfg: BoundConfig) -> dict:
+    return asdict(cfg)
+
+
+def write_outputs(result: BoundResult, out: Path) -> list[Path]:
+    """metrics.json, timeseries.csv, plots (gait diagram, pitches, spine states, torques), bound.gif."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    metrics = dict(result.metrics)
+    metrics["config"] = config_dict(result.config)
+    p = out / "metrics.json"
+    p.write_text(json.dumps(metrics, indent=2, default=float) + "\n")
+    paths.append(p)
+    p = out / "timeseries.csv"
+    np.savetxt(p, result.series, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.9g")
+    paths.append(p)
+    s = result.series
+    t = result.column("t")
+    fig, ax = plt.subplots(figsize=(10, 2.6))
+    for k, leg in enumerate(("HL", "HR", "FL", "FR")):
+        c = result.column(f"contact_{leg}") > 0.5
+        edges = np.flatnonzero(np.diff(np.r_[0, c.astype(int), 0]))
+        spans = [(t[a], (t[b - 1] - t[a]) + 1e-3) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        ax.broken_barh(spans, (k - 0.4, 0.8), color="k")
+    ax.set_yticks(range(4), ["HL", "HR", "FL", "FR"])
+    ax.set_xlabel("t (s)")
+    ax.set_title("gait diagram (foot contact)")
+    t_end = t[-1] if len(t) else 0.0
+    ax.set_xlim(max(0.0, t_end - 2.0), t_end)
+    fig.tight_layout()
+    paths.append(_save(fig, out / "gait_diagram.png"))
+    fig, ax = plt.subplots(figsize=(10, 3.5))
+    ax.plot(t, result.column("q1_true"), label="hind body pitch q1 (true)")
+    ax.plot(t, result.column("q1_est"), lw=0.6, label="q1 (estimator)")
+    ax.plot(t, result.column("pitch_front"), label="front body pitch")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("rad (+ nose down)")
+    ax.legend(loc="upper right")
+    fig.tight_layout()
+    paths.append(_save(fig, out / "body_pitch.png"))
+    fig, axes = plt.subplots(3, 1, figsize=(10, 6), sharex=True)
+    for ax, name, unit in zip(axes, ("x", "z", "theta"), ("m", "m", "rad"), strict=True):
+        ax.plot(t, result.column(f"spine_{name}"))
+        ax.set_ylabel(f"spine {name} ({unit})")
+    axes[-1].set_xlabel("t (s)")
+    fig.tight_layout()
+    paths.append(_save(fig, out / "spine_task_space.png"))
+    fig, ax = plt.subplots(figsize=(10, 3.5))
+    for k, name in enumerate(("tau2", "tau3", "tau4")):
+        ax.plot(t, s[:, COLUMNS.index(name)], lw=0.8, label=f"q{k + 2}")
+    ax.plot(t, result.column("leg_tau_max"), lw=0.5, color="grey", label="max |leg torque|")
+    ax.set_ylabel("N*m")
+    ax.set_xlabel("t (s)")
+    ax.legend(loc="upper right")
+    fig.tight_layout()
+    paths.append(_save(fig, out / "torques.png"))
+    if result.node_states:
+        p = out / "node_states.npz"
+        np.savez(p, **result.node_states)
+        paths.append(p)
+    if result.frames:
+        from matplotlib import animation
+
+        fig = plt.figure(figsize=(result.frames[0].shape[1] / 100, result.frames[0].shape[0] / 100), dpi=100)
+        ax = fig.add_axes((0, 0, 1, 1))
+        ax.axis("off")
+        img = ax.imshow(result.frames[0])
+
+        def update(i):
+            img.set_data(result.frames[i])
+            return (img,)
+
+        anim = animation.FuncAnimation(fig, update, frames=len(result.frames), blit=True)
+        p = out / "bound.gif"
+        anim.save(p, writer=animation.PillowWriter(fps=VIDEO_FPS))
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def _save(fig, path: Path) -> Path:
+    fig.savefig(path, dpi=110)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return path

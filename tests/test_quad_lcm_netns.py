@@ -1,0 +1,91 @@
+"""Done-means of the quadruped issue over LCM: the quadruped sim (`sparc-quad bound --lcm`) and the spine node
+(`sparc-quad spine-node --motors lcm`) as separate processes on UDP multicast inside a network namespace this
+test creates, in lockstep, against the same bound with the node in process.
+
+Asserts: no fall and forward progress both ways; every tick answered; the node's q1 is the estimator's q1
+(noise, bias and delay included) on every tick; the LCM trajectory equals the in-process one.
+Reduced size (2.5 s of bounding) to keep the default suite short.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sparc_quad.sim.bound_run import BoundConfig, run_bound
+from sparc_quad.sim.quad_node_link import NodeSpine
+from tests.node_netns import run_in_netns, unshare_prefix
+
+ROOT = Path(__file__).resolve().parents[1]
+DURATION = 2.5
+
+pytestmark = [pytest.mark.netns,
+              pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")]
+
+
+@pytest.fixture(scope="module")
+def lcm_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("quad_lcm")
+    py = shlex.quote(sys.executable)
+    script = f"""
+export PYTHONPATH={shlex.quote(str(ROOT))}
+{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 \
+    --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
+NODE=$!
+{py} -m sparc_quad bound --lcm --duration {DURATION} --out {out} > {out}/robot.out 2> {out}/robot.err
+wait $NODE
+"""
+    r = run_in_netns(script, ROOT, timeout_s=240)
+    logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
+    assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"
+    return out, logs
+
+
+@pytest.fixture(scope="module")
+def inprocess_run():
+    cfg = BoundConfig(duration_s=DURATION, stop_on_fall=False)
+    return run_bound(cfg, spine=NodeSpine.inprocess(cfg.spine))
+
+
+def _series(path: Path) -> tuple[list[str], np.ndarray]:
+    header = path.read_text().split("\n", 1)[0].split(",")
+    return header, np.loadtxt(path, delimiter=",", skiprows=1)
+
+
+def test_both_bound_without_falling_and_move_forward(lcm_run, inprocess_run):
+    out, logs = lcm_run
+    m = json.loads((out / "metrics.json").read_text())
+    assert not m["fell"], logs
+    assert m["distance_m"] > 0.2
+    assert not inprocess_run.metrics["fell"] and inprocess_run.metrics["distance_m"] > 0.2
+
+
+def test_every_tick_answered_and_node_used_the_estimators_q1(lcm_run):
+    out, logs = lcm_run
+    node = json.loads((out / "node.json").read_text())
+    ticks = round(DURATION * 1000)
+    assert node["ticks"] == ticks and node["rejected"] == 0, logs
+    states = np.load(out / "node_states.npz")
+    header, s = _series(out / "timeseries.csv")
+    q1_est, q1_true = s[:, header.index("q1_est")], s[:, header.index("q1_true")]
+    assert len(states["node_q"]) == ticks
+    # what the node ran on, tick by tick, is exactly what the robot published from its estimator
+    np.testing.assert_array_equal(states["node_q"][:, 0], states["robot_sent_q1"])
+    np.testing.assert_allclose(states["robot_sent_q1"], q1_est, rtol=0, atol=1e-8)
+    assert not np.array_equal(q1_est, q1_true)  # and that was the estimate, not the truth
+    np.testing.assert_array_equal(states["node_feedback_seq"], np.arange(ticks))
+
+
+def test_lockstep_over_lcm_equals_inprocess(lcm_run, inprocess_run):
+    out, _ = lcm_run
+    header, s = _series(out / "timeseries.csv")
+    ref = inprocess_run.series
+    assert s.shape == ref.shape
+    for name in ("x", "z", "q1_true", "q2", "q3", "q4", "tau2", "tau3", "tau4"):
+        k = header.index(name)
+        assert np.max(np.abs(s[:, k] - ref[:, k])) <= 1e-7, name  # CSV keeps 9 significant digits
