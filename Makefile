@@ -29,7 +29,7 @@ lint: install
 	$(BIN)/ruff check .
 
 # every performance script prints ratios measured in the same run and writes out/bench/<name>.json
-BENCHES := control_step lcm_loop can_loop
+BENCHES := control_step lcm_loop can_loop gap cosim
 bench: install
 	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json || exit 1; done
 
