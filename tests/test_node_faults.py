@@ -249,3 +249,35 @@ def test_loop_timing_is_reported():
     h = Harness()
     s = h.step(5)
     assert s.compute > 0 and s.period > 0 and s.jitter_max >= 0
+
+
+def test_lockstep_repeated_tick_is_answered_again_without_stepping():
+    """UDP may drop an answer: the robot repeats the tick and the node re-sends its command."""
+    import threading
+
+    from spine_module.buses.base import MotorFeedback
+    from spine_module.messages import Heartbeat, TorsoState
+    from spine_module.node import run_lockstep
+
+    h = Harness()
+    answers = []
+
+    def robot():
+        for k in range(20):
+            t = k * DT
+            if k % 10 == 0:
+                h.io.send_heartbeat(Heartbeat("r", stamp_s=t, seq=k))
+                h.io.send_command(SpineCommand(stamp_s=t, seq=k))
+            h.io.send_torso(TorsoState(stamp_s=t, seq=k))
+            fb = MotorFeedback(q=h.q.copy(), dq=np.zeros(3), tau=np.zeros(3), stamp_s=t, seq=k)
+            for _ in range(2 if k == 5 else 1):
+                h.link.robot.publish_feedback(fb)
+                answers.append(h.link.robot.take_command(2.0))
+
+    th = threading.Thread(target=robot)
+    th.start()
+    run_lockstep(h.node, max_ticks=20, idle_timeout_s=1.0)
+    th.join()
+    assert h.node.seq == 20 and h.node.repeated_ticks == 1
+    assert all(a is not None for a in answers) and len(answers) == 21
+    assert answers[5][1] == answers[6][1] == 5 and answers[5][0].seq == answers[6][0].seq

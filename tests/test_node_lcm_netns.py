@@ -68,8 +68,9 @@ def test_processes_ran_and_answered_every_tick(lcm_run):
     robot = json.loads((out / "summary.json").read_text())
     node = json.loads((out / "node.json").read_text())
     assert robot["ticks"] == round(PERIOD * 1000) and robot["unanswered"] == 0, logs
-    assert node["ticks"] == robot["ticks"] and node["rejected"] == 0
-    assert robot["node_states"] == robot["ticks"] and not robot["latched"]
+    assert node["ticks"] == robot["ticks"] and node["rejected"] == 0 and not robot["latched"]
+    # spine states are fire-and-forget UDP: a datagram may be lost on a loaded machine, rarely
+    assert robot["node_states"] >= 0.98 * robot["ticks"]
 
 
 def test_lockstep_trajectory_matches_inprocess(lcm_run, inprocess_run):
@@ -86,7 +87,8 @@ def test_static_push_stiffness_matches_inprocess_and_rig(lcm_run, inprocess_run)
     _, ref_states = inprocess_run
     a = dict(np.load(out / "bench_robot.npz"))
     k_lcm = stiffness_from_states(a)
-    k_inproc = stiffness_from_states(ref_states)
+    got = set(a["node_seq"].astype(int).tolist())  # the same ticks, should a state datagram have been lost
+    k_inproc = stiffness_from_states([s for s in ref_states if s.seq in got])
     row, _, _ = measure_stiffness(K, StaticConfig(period_s=PERIOD, cycles=1, sample_every=1))
     assert k_lcm == pytest.approx(k_inproc, rel=1e-9)
     assert k_lcm == pytest.approx(row.k_hat, rel=1e-9)
@@ -108,13 +110,21 @@ def test_logger_replay_through_decoder(lcm_run):
         if ev.channel == channels.SPINE_STATE:
             states.append(msg)
     n = round(PERIOD * 1000)
-    assert counts[channels.MOTOR_FEEDBACK] == n
-    assert counts[channels.MOTOR_COMMAND] == n + 1  # one answer per tick, and the stop on exit
-    assert counts[channels.TORSO_STATE] == n and counts[channels.SPINE_STATE] == n
-    assert counts[channels.HEARTBEAT_ROBOT] >= n // 10 and counts[channels.SPINE_COMMAND] >= n // 10
-    np.testing.assert_array_equal(np.array([s.x for s in states]), a["node_x"])
-    np.testing.assert_array_equal(np.array([s.tau_cmd for s in states]), a["node_tau_cmd"])
-    np.testing.assert_array_equal(np.array([s.stamp_s for s in states]), a["node_stamp_s"])
+    summary = json.loads((out / "summary.json").read_text())
+    # one feedback and one answer per tick (+ retransmitted ticks, + the node's stop on exit); a logger
+    # descheduled too long could miss a datagram, so allow a rare loss
+    for ch in (channels.MOTOR_FEEDBACK, channels.MOTOR_COMMAND, channels.TORSO_STATE, channels.SPINE_STATE):
+        assert 0.98 * n <= counts[ch] <= n + 1 + summary["retransmits"], (ch, counts[ch])
+    assert counts[channels.HEARTBEAT_ROBOT] >= n // 20 and counts[channels.SPINE_COMMAND] >= n // 20
+    # the replayed states are the states the robot received, field for field
+    by_seq = {int(sq): i for i, sq in enumerate(a["node_seq"])}
+    common = [s for s in states if s.seq in by_seq]
+    assert len(common) >= 0.98 * n
+    idx = [by_seq[s.seq] for s in common]
+    np.testing.assert_array_equal(np.array([s.x for s in common]), a["node_x"][idx])
+    np.testing.assert_array_equal(np.array([s.tau_cmd for s in common]), a["node_tau_cmd"][idx])
+    np.testing.assert_array_equal(np.array([s.stamp_s for s in common]), a["node_stamp_s"][idx])
+    np.testing.assert_array_equal(np.array([int(s.faults) for s in common]), a["node_faults"][idx])
     # a recorded command replayed on the wrong channel, and a truncated one, are rejected clearly
     with pytest.raises(FingerprintError, match=r"expected sparc\.motor_feedback_t"):
         decode(channels.MOTOR_FEEDBACK, sample[channels.MOTOR_COMMAND])

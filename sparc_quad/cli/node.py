@@ -21,6 +21,7 @@ import numpy as np
 
 from spine_module import params as P
 from spine_module.buses import registry
+from spine_module.messages import channels
 from spine_module.safety import SafetyConfig
 
 log = logging.getLogger("sparc_quad.cli.node")
@@ -81,8 +82,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--motors", default="lcm", choices=sorted(registry.BACKENDS),
                    help="motor bus backend (default: %(default)s; inprocess runs the bench robot in this "
                         "process)")
-    p.add_argument("--lcm-url", default="", help="LCM URL (default: $LCM_DEFAULT_URL or LCM's default "
-                                                 "udpm://239.255.76.67:7667?ttl=0)")
+    p.add_argument("--lcm-url", default=channels.DEFAULT_URL,
+                   help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
     p.add_argument("--rate", type=float, default=P.CONTROL_RATE_HZ,
                    help="control rate, Hz (default: %(default)s)")
     p.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime",
@@ -106,7 +107,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Runs the pybullet bench spine and speaks the robot's side of the spine "
                                    "interface: publishes motor feedback, torso state, heartbeat and the "
                                    "script's spine commands; applies motor commands.")
-    r.add_argument("--lcm-url", default="", help="LCM URL (default: LCM's default)")
+    r.add_argument("--lcm-url", default=channels.DEFAULT_URL,
+                   help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
     r.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime")
     r.add_argument("--duration", type=float, default=None,
                    help="seconds of robot time (default: the script's)")
@@ -156,7 +158,8 @@ def run_node(args: argparse.Namespace) -> int:
     summary = {"ticks": res.ticks, "elapsed_wall_s": res.elapsed_wall_s,
                "achieved_rate_hz": res.achieved_rate_hz,
                "jitter_max_s": res.jitter_max_s, "overruns": res.overruns, "rejected": node.rejected_count,
-               "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected}
+               "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
+               "repeated_ticks": node.repeated_ticks}
     print(json.dumps(summary))
     if args.summary is not None:
         args.summary.parent.mkdir(parents=True, exist_ok=True)
@@ -197,7 +200,8 @@ def run_bench_robot(args: argparse.Namespace) -> int:
         while time.monotonic() < t_end:
             port.lc.handle_timeout(20)
     states = [s for s in port.states]
-    summary = {"ticks": robot.k, "unanswered": robot.unanswered, "node_states": len(states),
+    summary = {"ticks": robot.k, "unanswered": robot.unanswered, "retransmits": robot.retransmits,
+               "node_states": len(states),
                "latched": robot.latched, "achieved_rate_hz": rate, "rejected": port.rejected}
     if args.experiment == "static" and states:
         summary["k_hat_n_m"] = stiffness_from_states(states)

@@ -224,6 +224,7 @@ class RobotConfig:
     # Motor-side command timeout (the CyberGear's CAN timeout, off by default on the real motor): with no
     # fresh command for this long the motors apply zero torque instead of holding a stale one. Robot clock.
     command_timeout_s: float = 0.020
+    retry_s: float = 0.2  # lockstep: resend the tick when its answer has not come within this (wall s)
     name: str = "bench-robot"
 
 
@@ -264,6 +265,8 @@ class BenchRobot:
         self._node_reset_count = 0
         self._latched_at_reset_count = 0
         self.unanswered = 0
+        self.retransmits = 0
+        self._sent: tuple[TorsoState, MotorFeedback] | None = None
         self.t_feedback_wall = 0.0
         self._clock = 0.0
         self._cmd_clock: float | None = None
@@ -283,7 +286,8 @@ class BenchRobot:
         st = self.world.state()
         hb_every = max(1, round(self.cfg.heartbeat_period_s / self.dt))
         cmd_every = max(1, round(self.cfg.command_period_s / self.dt))
-        self.port.publish_torso(TorsoState(q1=float(st.q[0]), dq1=float(st.dq[0]), stamp_s=t, seq=self.k))
+        torso = TorsoState(q1=float(st.q[0]), dq1=float(st.dq[0]), stamp_s=t, seq=self.k)
+        self.port.publish_torso(torso)
         if self.k % hb_every == 0:
             self.port.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=self.latched, stamp_s=t,
                                                   seq=self._hb_seq))
@@ -302,6 +306,7 @@ class BenchRobot:
         fb.stamp_s, fb.seq = t, self.k
         self.t_feedback_wall = time.perf_counter()
         self.port.publish_feedback(fb)
+        self._sent = (torso, fb)
         self._pending = (t, st.q.copy(), self._kin.x.copy(), fx, f_cell)
         self._clock = clock
         self._watch_node(clock)
@@ -366,7 +371,7 @@ class BenchRobot:
             if stop is not None and stop():
                 break
             self.publish_tick()
-            cmd = self.port.take_command(self.cfg.lockstep_timeout_s, want_seq=self.k)
+            cmd = self._await_answer()
             rtt = time.perf_counter() - self.t_feedback_wall  # feedback out -> its answer in
             if cmd is None:
                 self.unanswered += 1
@@ -374,6 +379,21 @@ class BenchRobot:
                     log.warning("tick %d: no answer from the node within %.1f s", self.k,
                                 self.cfg.lockstep_timeout_s)
             self.finish_tick(cmd, rtt)
+
+    def _await_answer(self) -> MotorCommand | None:
+        """Wait for the command answering this tick; UDP may drop a datagram, so every `retry_s` the
+        tick's torso state and feedback are sent again (the node answers a repeated tick with its
+        previous command, without stepping again)."""
+        deadline = time.monotonic() + self.cfg.lockstep_timeout_s
+        while True:
+            cmd = self.port.take_command(min(self.cfg.retry_s, max(0.0, deadline - time.monotonic())),
+                                         want_seq=self.k)
+            if cmd is not None or time.monotonic() >= deadline:
+                return cmd
+            self.retransmits += 1
+            torso, fb = self._sent
+            self.port.publish_torso(torso)
+            self.port.publish_feedback(fb)
 
     def run_realtime(self, n_ticks: int | None = None, stop: Callable[[], bool] | None = None) -> float:
         """Step on a 1 kHz wall clock, applying the newest command; returns the achieved rate (Hz)."""

@@ -1,5 +1,11 @@
 """LCM channel names of the spine module (documented in README, "Spine node and LCM interface")."""
 
+import os
+
+# LCM's default group and port, with a 2 MB socket receive buffer (capped by net.core.rmem_max) so a
+# briefly descheduled process does not drop datagrams at 1 kHz. $LCM_DEFAULT_URL overrides it.
+DEFAULT_URL = os.environ.get("LCM_DEFAULT_URL", "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=2097152")
+
 TORSO_STATE = "SPARC_TORSO_STATE"  # robot/estimator -> node, sparc.torso_state_t
 SPINE_COMMAND = "SPARC_SPINE_COMMAND"  # torso computer -> node, sparc.spine_command_t
 SPINE_STATE = "SPARC_SPINE_STATE"  # node -> anyone, sparc.spine_state_t

@@ -82,6 +82,8 @@ class SpineNode:
         self._pending_bus_fault = Fault.NONE
         self._ratelog = _RateLimitedLog()
         self.last_now: float | None = None
+        self.last_command: MotorCommand | None = None
+        self.repeated_ticks = 0
 
     # --- inputs -----------------------------------------------------------------------------------
     def receive(self, timeout_s: float | None) -> MotorFeedback | None:
@@ -187,6 +189,7 @@ class SpineNode:
             tau = np.zeros(3)
 
         cmd = MotorCommand(tau_ff=tau, enable=v.enable, stamp_s=now, seq=self.seq)
+        self.last_command = cmd
         try:
             self.bus.send(cmd)
         except MotorBusError as exc:
@@ -262,6 +265,15 @@ class SpineNode:
         if noisy_new:
             self._ratelog(f"noisy:{int(noisy_new)}", now, logging.INFO, "t=%.4f s: %s", now, noisy_new.name)
         self._last_faults = faults
+
+    def resend(self) -> None:
+        """Send the last motor command again (lockstep: the robot repeated a tick whose answer was lost)."""
+        if self.last_command is None:
+            return
+        try:
+            self.bus.send(self.last_command)
+        except MotorBusError as exc:
+            self._bus_error(exc, self.last_now if self.last_now is not None else 0.0)
 
     def idle_heartbeat(self) -> None:
         """Heartbeat while waiting for the first (or a late) feedback tick in lockstep, so the robot side
@@ -344,6 +356,10 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
                     break
                 continue
             last_heard = time.monotonic()
+            if ticks and fb.seq <= node.state.feedback_seq:  # a repeated tick: answer again, do not step
+                node.repeated_ticks += 1
+                node.resend()
+                continue
             now = fb.stamp_s
             first = now if first is None else first
             if duration_s is not None and now - first > duration_s:
