@@ -281,3 +281,27 @@ def test_lockstep_repeated_tick_is_answered_again_without_stepping():
     assert h.node.seq == 20 and h.node.repeated_ticks == 1
     assert all(a is not None for a in answers) and len(answers) == 21
     assert answers[5][1] == answers[6][1] == 5 and answers[5][0].seq == answers[6][0].seq
+
+
+def test_unexpected_exception_in_a_tick_stops_motors_and_the_loop_goes_on(caplog):
+    h = Harness()
+    _running(h)
+    calls = {"n": 0}
+    original = h.io.publish_state
+
+    def flaky(state):
+        calls["n"] += 1
+        if calls["n"] == 1:
+            raise OSError("disk full")
+        original(state)
+
+    h.io.publish_state = flaky
+    h.link.robot.publish_feedback(h.node.fb)
+    with caplog.at_level(logging.ERROR, logger="spine_module.node"):
+        h.node.safe_tick(h.t, h.node.receive(0.0))
+    cmd, _ = h.link.robot.take_command(0.0)
+    assert not cmd.enable and not cmd.tau_ff.any() and h.node.tick_errors == 1
+    assert "control tick failed" in caplog.text
+    h.k += 1
+    s = h.step(1)
+    assert s.mode == Mode.IMPEDANCE and h.commands[-1].tau_ff.any()

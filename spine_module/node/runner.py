@@ -84,6 +84,7 @@ class SpineNode:
         self.last_now: float | None = None
         self.last_command: MotorCommand | None = None
         self.repeated_ticks = 0
+        self.tick_errors = 0
 
     # --- inputs -----------------------------------------------------------------------------------
     def receive(self, timeout_s: float | None) -> MotorFeedback | None:
@@ -266,6 +267,21 @@ class SpineNode:
             self._ratelog(f"noisy:{int(noisy_new)}", now, logging.INFO, "t=%.4f s: %s", now, noisy_new.name)
         self._last_faults = faults
 
+    def safe_tick(self, now: float, feedback: MotorFeedback | None, wall_s: float | None = None) -> None:
+        """`tick`, but an unexpected exception (a bug, a full disk under a logger, ...) stops the motors
+        for this tick and is logged instead of ending the loop."""
+        try:
+            self.tick(now, feedback, wall_s)
+        except Exception as exc:
+            self.tick_errors += 1
+            self._ratelog("tick", now, logging.ERROR, "control tick failed (%d so far), motors stopped: %r",
+                          self.tick_errors, exc)
+            try:
+                self.bus.send(MotorCommand.zero(3, enable=False))
+            except Exception as exc2:  # the bus is broken too: nothing more to do this tick
+                self._ratelog("tick-bus", now, logging.ERROR, "could not stop motors: %r", exc2)
+            self.seq += 1
+
     def resend(self) -> None:
         """Send the last motor command again (lockstep: the robot repeated a tick whose answer was lost)."""
         if self.last_command is None:
@@ -326,7 +342,7 @@ def run_realtime(node: SpineNode, duration_s: float | None = None,
                 if fb is None:
                     break
                 newest = fb
-            node.tick(now, newest, wall_s=clock.t0 + now)
+            node.safe_tick(now, newest, wall_s=clock.t0 + now)
             jitter = max(jitter, node.stats.jitter_max)
             ticks += 1
     finally:
@@ -364,7 +380,7 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
             first = now if first is None else first
             if duration_s is not None and now - first > duration_s:
                 break
-            node.tick(now, fb)
+            node.safe_tick(now, fb)
             ticks += 1
     finally:
         node.stop()
