@@ -136,7 +136,11 @@ def run_node(args: argparse.Namespace) -> int:
 
     if args.motors == "inprocess":
         return _run_node_inprocess(args)
-    lc = lcm.LCM(args.lcm_url)
+    try:
+        lc = lcm.LCM(args.lcm_url)
+    except RuntimeError as exc:
+        log.error("cannot open LCM at %r (a multicast route is needed, see README): %s", args.lcm_url, exc)
+        return 2
     try:
         bus = registry.make_bus(args.motors, args, lc)
     except ValueError as exc:
@@ -184,7 +188,11 @@ def run_bench_robot(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bench_world import BenchWorld
 
     script = _script(args)
-    port = LcmRobotPort(args.lcm_url)
+    try:
+        port = LcmRobotPort(args.lcm_url)
+    except RuntimeError as exc:
+        log.error("cannot open LCM at %r (a multicast route is needed, see README): %s", args.lcm_url, exc)
+        return 2
     with BenchWorld(plant=_plant(args), seed=args.seed) as world, _stop_on_signals() as stop:
         robot = BenchRobot(world, port, script)
         if args.clock == "lockstep":

@@ -36,8 +36,8 @@ def backend_module(name: str):
         raise ValueError(f"unknown motor backend {name!r}; known: {', '.join(sorted(BACKENDS))}") from None
     try:
         return importlib.import_module(path)
-    except ImportError as exc:
-        raise ValueError(f"motor backend {name!r} ({path}) is not available: {exc}") from exc
+    except Exception as exc:
+        raise ValueError(f"motor backend {name!r} ({path}) is not available: {exc!r}") from exc
 
 
 def add_backend_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,7 +45,7 @@ def add_backend_arguments(parser: argparse.ArgumentParser) -> None:
     for name in BACKENDS:
         try:
             mod = backend_module(name)
-        except ValueError:
+        except Exception:  # a broken or missing backend must not take the other commands down
             continue
         add: Callable[[argparse.ArgumentParser], None] | None = getattr(mod, "add_arguments", None)
         if add is not None:
