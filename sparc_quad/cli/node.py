@@ -81,7 +81,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "torques, publishes SPARC_SPINE_STATE and a heartbeat.")
     p.add_argument("--motors", default="lcm", choices=sorted(registry.BACKENDS),
                    help="motor bus backend (default: %(default)s; inprocess runs the bench robot in this "
-                        "process)")
+                        "process, in lockstep)")
     p.add_argument("--lcm-url", default=channels.DEFAULT_URL,
                    help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
     p.add_argument("--rate", type=float, default=P.CONTROL_RATE_HZ,
@@ -174,6 +174,8 @@ def run_node(args: argparse.Namespace) -> int:
 def _run_node_inprocess(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bench_robot import run_inprocess, stiffness_from_states
 
+    if args.clock != "lockstep":
+        log.info("--motors inprocess always runs in lockstep (robot and node in one thread)")
     script = _script(args)
     robot, states = run_inprocess(script, _node_config(args), plant=_plant(args), seed=args.seed)
     out = {"ticks": robot.k, "final_x": [float(v) for v in states[-1].x] if states else None}
