@@ -113,7 +113,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--duration", type=float, default=None,
                    help="seconds of robot time (default: the script's)")
     r.add_argument("--wait-node", type=float, default=30.0,
-                   help="lockstep: wait this long (wall s) for the node's first heartbeat "
+                   help="wait this long (wall s) for the node's first heartbeat before stepping "
                         "(default: %(default)s)")
     r.add_argument("--out", type=Path, default=None,
                    help="write bench_robot.npz (robot log and the node's states) and summary.json here")
@@ -197,10 +197,11 @@ def run_bench_robot(args: argparse.Namespace) -> int:
         return 2
     with BenchWorld(plant=_plant(args), seed=args.seed) as world, _stop_on_signals() as stop:
         robot = BenchRobot(world, port, script)
+        # the world stays frozen until a node is up (unpowered, the spine would sag under gravity)
+        if not robot.wait_for_node(args.wait_node):
+            log.error("no heartbeat from a spine node within %.1f s", args.wait_node)
+            return 1
         if args.clock == "lockstep":
-            if not robot.wait_for_node(args.wait_node):
-                log.error("no heartbeat from a spine node within %.1f s", args.wait_node)
-                return 1
             robot.run_lockstep(stop=stop.is_set)
             rate = None
         else:

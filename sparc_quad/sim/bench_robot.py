@@ -299,6 +299,10 @@ class BenchRobot:
             self._cmd_seq += 1
         # like rig.run: the motors' frame, then the rig's force and its load cell (same rng order)
         fb = self.world.feedback()
+        # a CyberGear feedback frame cannot carry more than its encoding range
+        fb.q = np.clip(fb.q, -4 * math.pi, 4 * math.pi)
+        fb.dq = np.clip(fb.dq, -P.VELOCITY_LIMIT_RAD_S, P.VELOCITY_LIMIT_RAD_S)
+        fb.tau = np.clip(fb.tau, -P.TORQUE_LIMIT_NM, P.TORQUE_LIMIT_NM)
         self.world.model.update_kinematics(self._kin, st.q, st.dq)
         fx = self.script.force(self.world.time_s, self._kin.x, self._kin.dx) if self.script.force else 0.0
         f_cell = self.world.load_cell(fx)
