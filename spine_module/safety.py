@@ -133,8 +133,8 @@ def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, res
         mode, enable = Mode.DISABLED, False
     elif active & Fault.FEEDBACK_STALE:
         mode = Mode.DISABLED  # zero torque, motors left enabled so fresh feedback resumes control at once
-    elif active & Fault.TORSO_STALE:
-        mode = Mode.DAMPING
+    elif active & Fault.TORSO_STALE and requested in (*TORQUE_MODES, Mode.DAMPING):
+        mode = Mode.DAMPING  # a DISABLED request stays disabled: the fallback never energises motors
     elif command_stale and requested in TORQUE_MODES:
         mode, default_gains = Mode.IMPEDANCE, True
     else:

@@ -108,3 +108,11 @@ def test_joint_limit_damping_only_near_and_towards_the_limit():
 
 def test_damping_torque():
     np.testing.assert_allclose(damping_torque(np.array([1.0, -2.0, 0.0]), 0.3), [-0.3, 0.6, 0.0])
+
+
+def test_torso_stale_never_energises_a_disabled_spine():
+    rx = Receipts(torso=None, feedback=1.0, command=1.0, heartbeat=1.0)
+    _, v = supervise(SafetyState(), 1.0, rx, Mode.DISABLED, False, CFG)
+    assert v.mode == Mode.DISABLED and not v.enable and v.faults & Fault.TORSO_STALE
+    _, v = supervise(SafetyState(), 1.0, rx, Mode.JOINT_TORQUE, False, CFG)
+    assert v.mode == Mode.DAMPING and v.enable
