@@ -89,7 +89,11 @@ def test_static_push_stiffness_matches_inprocess_and_rig(lcm_run, inprocess_run)
     k_lcm = stiffness_from_states(a)
     got = set(a["node_seq"].astype(int).tolist())  # the same ticks, should a state datagram have been lost
     k_inproc = stiffness_from_states([s for s in ref_states if s.seq in got])
-    row, _, _ = measure_stiffness(K, StaticConfig(period_s=PERIOD, cycles=1, sample_every=1))
+    script = static_push_script(K, period_s=PERIOD, cycles=1.0)  # what bench-robot ran, spelled out:
+    cfg = StaticConfig(k_z=float(script.command.k[1]), k_theta=float(script.command.k[2]),
+                       d=tuple(script.command.d), amplitude_m=0.025, period_s=PERIOD, cycles=1,
+                       sample_every=1, controller="impedance", seed=0)
+    row, _, _ = measure_stiffness(K, cfg)
     assert k_lcm == pytest.approx(k_inproc, rel=1e-9)
     assert k_lcm == pytest.approx(row.k_hat, rel=1e-9)
     assert k_lcm == pytest.approx(K, rel=0.05)  # and it is the commanded stiffness (short, dynamic run)
