@@ -16,7 +16,8 @@ Behaviours (deadlines from `params.SAFETY`):
 - E-stop command: latched ESTOP, zero torque, motors stopped, until a reset with a non-E-stop command.
 - torques clamp at +-torque limit; inside `JOINT_LIMIT_MARGIN_RAD` of a joint limit, moving towards it,
   damping is added (reported as JOINT_LIMIT).
-- entering impedance or PD mode ramps K and D from 0 to 1 over `soft_start_s`.
+- entering impedance or PD mode ramps K and D from 0 to 1 over `soft_start_s` (the node also moves the
+  target in from the pose at the ramp's start, `soft_start_target`).
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ class SafetyConfig:
     command_deadline_s: float = params.SAFETY.command_deadline_s
     heartbeat_deadline_s: float = params.SAFETY.heartbeat_deadline_s
     soft_start_s: float = params.SAFETY.soft_start_s
+    soft_start_target: bool = True  # during the soft start the target also moves in from the current pose
     joint_limit_damping: float = params.SAFETY.joint_limit_damping_nm_s_rad
     damping_mode: float = params.SAFETY.damping_mode_nm_s_rad
     torque_limit: float = params.TORQUE_LIMIT_NM

@@ -305,3 +305,16 @@ def test_unexpected_exception_in_a_tick_stops_motors_and_the_loop_goes_on(caplog
     h.k += 1
     s = h.step(1)
     assert s.mode == Mode.IMPEDANCE and h.commands[-1].tau_ff.any()
+
+
+def test_soft_start_moves_the_target_in_from_the_current_pose():
+    x_cmd = np.array([0.27, 0.0, 0.0])
+    h = Harness(command=SpineCommand(mode=Mode.IMPEDANCE, x_d=x_cmd.copy()))
+    x0 = np.array([0.25, -0.02, 0.1])
+    h.node.ctrl.task_state = lambda q, dq: (x0.copy(), np.zeros(3))
+    h.step(1)
+    for _ in range(600):
+        s = h.step()
+        expect = x0 + min(1.0, s.gain_scale) * (x_cmd - x0)
+        np.testing.assert_allclose(h.ctrl.x_d, expect, atol=1e-12)
+    np.testing.assert_allclose(h.ctrl.x_d, x_cmd)

@@ -85,6 +85,8 @@ class SpineNode:
         self.last_command: MotorCommand | None = None
         self.repeated_ticks = 0
         self.tick_errors = 0
+        self._ramp_key: float | None = None  # ramp start time the ramp origin below belongs to
+        self._ramp_from: np.ndarray | None = None
 
     # --- inputs -----------------------------------------------------------------------------------
     def receive(self, timeout_s: float | None) -> MotorFeedback | None:
@@ -233,12 +235,13 @@ class SpineNode:
             ctrl = self.ctrl.impedance if with_friction else self.ctrl.impedance_plain
         k, d = (scfg.default_k, scfg.default_d) if v.default_gains else (c.k, c.d)
         ddq1 = self.torso.ddq1 if self.torso is not None and self.torso.ddq1_valid else 0.0
+        x_d = np.asarray(c.x_d, dtype=float)
+        dx_d, ddx_d = (np.zeros(3), np.zeros(3)) if v.default_gains else (c.dx_d, c.ddx_d)
+        if v.gain_scale < 1.0 and scfg.soft_start_target:
+            x_d, dx_d, ddx_d = self._ramped_target(v.gain_scale, x_d, dx_d, ddx_d, q, dq)
         try:
             ctrl.set_gains(k=np.asarray(k) * v.gain_scale, d=np.asarray(d) * v.gain_scale)
-            if v.default_gains:
-                ctrl.set_target(x_d=c.x_d, dx_d=(0.0, 0.0, 0.0), ddx_d=(0.0, 0.0, 0.0))
-            else:
-                ctrl.set_target(x_d=c.x_d, dx_d=c.dx_d, ddx_d=c.ddx_d)
+            ctrl.set_target(x_d=x_d, dx_d=dx_d, ddx_d=ddx_d)
             out = ctrl.step(q, dq, ddq1=ddq1)
         except Exception as exc:  # the loop never dies; the controller promises not to raise anyway
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller raised: %r", exc)
@@ -252,6 +255,18 @@ class SpineNode:
         if not v.default_gains:
             tau = tau + c.tau_ff
         return tau, x, dx, True
+
+    def _ramped_target(self, scale: float, x_d, dx_d, ddx_d, q: np.ndarray, dq: np.ndarray):
+        """During a soft start the target moves from the pose at the ramp's start to the commanded one,
+        so a spine that starts far from its target is not yanked there (as gains come up)."""
+        if self._ramp_key != self.safety.ramp_t0:
+            self._ramp_key = self.safety.ramp_t0
+            x0, _ = self.ctrl.task_state(q, dq)
+            self._ramp_from = x0 if np.all(np.isfinite(x0)) else None
+        if self._ramp_from is None:
+            return x_d, dx_d, ddx_d
+        x0 = self._ramp_from
+        return x0 + scale * (x_d - x0), scale * np.asarray(dx_d), scale * np.asarray(ddx_d)
 
     def _log_transitions(self, faults: Fault, mode: Mode, now: float) -> None:
         quiet = faults & ~_NOISY
