@@ -59,3 +59,25 @@ def test_help_lists_both_commands(capsys):
         main(["--help"])
     text = capsys.readouterr().out
     assert "spine-node" in text and "bench-robot" in text
+
+
+def test_spine_cmd_validates_before_sending(capsys, caplog):
+    assert main(["spine-cmd", "--lcm-url", "memq://", "--k", "1e9", "1000", "15"]) == 2
+    assert "SPARC_SPINE_COMMAND.k[0]" in caplog.text
+    assert main(["spine-cmd", "--lcm-url", "memq://", "--mode", "estop"]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1]) == {"sent": 1, "mode": "ESTOP"}
+
+
+def test_spine_echo_lines_decoded_and_rejected():
+    from sparc_quad.cli.node import echo_line
+    from spine_module.buses.base import MotorCommand
+    from spine_module.messages import SpineCommand, TorsoState, channels, codec
+
+    line = echo_line(channels.SPINE_COMMAND, codec.encode_command(SpineCommand(seq=4)))
+    assert line["channel"] == channels.SPINE_COMMAND and line["seq"] == 4 and line["mode"] == "IMPEDANCE"
+    assert line["k"] == [500.0, 1000.0, 15.0]
+    json.dumps(line)
+    line = echo_line(channels.MOTOR_COMMAND, codec.encode_motor_command(MotorCommand.zero(), feedback_seq=7))
+    assert line["feedback_seq"] == 7 and line["enable"] is False
+    bad = echo_line(channels.SPINE_COMMAND, codec.encode_torso(TorsoState()))
+    assert "wrong fingerprint" in bad["rejected"]
