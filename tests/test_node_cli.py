@@ -81,3 +81,15 @@ def test_spine_echo_lines_decoded_and_rejected():
     assert line["feedback_seq"] == 7 and line["enable"] is False
     bad = echo_line(channels.SPINE_COMMAND, codec.encode_torso(TorsoState()))
     assert "wrong fingerprint" in bad["rejected"]
+
+
+def test_spine_node_with_silent_motors_exits_cleanly_naming_them(caplog):
+    """No motor answers the start-up handshake: an error naming each motor, exit code 1, no traceback."""
+    from sparc_quad.cli import main
+
+    with caplog.at_level("ERROR"):
+        rc = main(["spine-node", "--motors", "can", "--can-interface", "virtual", "--can-channel",
+                   "silent-start", "--lcm-url", "memq://", "--duration", "0.2"])
+    assert rc == 1
+    text = caplog.text
+    assert "start-up failed" in text and "q2" in text and "q4" in text

@@ -21,6 +21,7 @@ import numpy as np
 
 from spine_module import params as P
 from spine_module.buses import registry
+from spine_module.buses.base import MotorBusError
 from spine_module.messages import Mode, channels
 from spine_module.safety import SafetyConfig
 
@@ -259,7 +260,13 @@ def run_node(args: argparse.Namespace) -> int:
         return 2
     io = LcmNodeIO(lc)
     node = SpineNode(Controllers.default(), bus, io, _node_config(args))
-    bus.start()
+    try:
+        bus.start()
+    except MotorBusError as exc:  # e.g. a motor that did not answer: say which, stop the others, exit
+        log.error("motor bus start-up failed: %s", exc)
+        bus.shutdown()
+        io.close()
+        return 1
     log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
     try:
         with _stop_on_signals() as stop:
