@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 import lcm
 import numpy as np
 
+from sparc_quad.bench.static import StaticConfig, push_pull
+from sparc_quad.bench.stats import ols
 from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
@@ -70,15 +72,15 @@ def hold_script(duration_s: float = 1.0, k: tuple[float, float, float] = tuple(P
     return BenchScript(command=cmd, duration_s=duration_s)
 
 
-def static_push_script(k_x: float = 500.0, amplitude_m: float = 0.025, period_s: float = 8.0,
-                       cycles: float = 1.0, k_z: float = 1000.0, k_theta: float = 15.0,
-                       d: tuple[float, float, float] = (5.0, 20.0, 0.3)) -> BenchScript:
-    """Section IV-A's push-pull: F_x = k_x * amplitude * sin(2 pi t / period) (as `bench.static`)."""
-    amp = k_x * amplitude_m
+_STATIC = StaticConfig()
 
-    def force(t: float, x: np.ndarray, dx: np.ndarray) -> float:
-        return amp * math.sin(2 * math.pi * t / period_s)
 
+def static_push_script(k_x: float = 500.0, amplitude_m: float = _STATIC.amplitude_m,
+                       period_s: float = _STATIC.period_s, cycles: float = 1.0, k_z: float = _STATIC.k_z,
+                       k_theta: float = _STATIC.k_theta,
+                       d: tuple[float, float, float] = _STATIC.d) -> BenchScript:
+    """Section IV-A's push-pull, the same force law as `sparc-quad bench static`."""
+    force = push_pull(k_x * amplitude_m, period_s)
     cmd = SpineCommand(mode=Mode.IMPEDANCE, k=np.array([k_x, k_z, k_theta]), d=np.array(d, dtype=float))
     return BenchScript(command=cmd, force=force, duration_s=cycles * period_s)
 
@@ -446,4 +448,4 @@ def stiffness_from_states(states: list[SpineState] | dict[str, np.ndarray], x_d:
     a = states if isinstance(states, dict) else states_arrays(states)
     t, x, f = a["node_stamp_s"], a["node_x"][:, 0] - x_d, a["node_load_cell"][:, 0]
     sel = (t >= skip_s) & np.isfinite(x) & np.isfinite(f)
-    return float(np.polyfit(x[sel], f[sel], 1)[0])
+    return ols(x[sel], f[sel]).slope
