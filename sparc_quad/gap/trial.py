@@ -106,7 +106,7 @@ def robot_for(csv_path: Path, meta: dict) -> Robot:
 def load_trial(path: str | Path, robot: Robot | None = None) -> Trial:
     """Read and validate one trial. Raises TrialError naming file, row and column."""
     path = Path(path)
-    if path.suffix == ".lcm" or path.name.startswith("lcmlog"):
+    if path.suffix in (".lcm", ".lcmlog") or path.name.startswith("lcmlog"):
         return load_lcm_log(path)
     if not path.exists():
         raise TrialError(path, "file not found")
@@ -198,22 +198,20 @@ def save_trial(trial: Trial, path: str | Path, meta: dict) -> Path:
     return path
 
 
-def load_lcm_log(path: Path, decoder=None) -> Trial:
+def load_lcm_log(path: str | Path, decoder=None) -> Trial:
     """Read an `lcm-logger` file written while the spine node ran.
 
-    The node's message types (`spine_module.messages`) decode the state and command channels; until they
-    exist, pass `decoder(event) -> dict | None` returning {"t", "q", "dq", "tau_cmd"} per event, plus a
-    sidecar JSON next to the log (same stem) describing the robot.
+    By default the node's messages are decoded with its validating codec (`sparc_quad.gap.lcm_log`: one
+    sample per spine state; a bad event is named by its number). A custom `decoder(event) -> dict | None`
+    returning {"t", "q", "dq", "tau_cmd"} per event reads other logs; it needs a sidecar JSON next to the log.
     """
     import lcm
 
+    path = Path(path)
     if decoder is None:
-        try:
-            from spine_module import messages  # type: ignore[attr-defined]
-            decoder = messages.gap_decoder  # type: ignore[attr-defined]
-        except (ImportError, AttributeError):
-            raise TrialError(path, "no LCM decoder: spine_module.messages.gap_decoder is not available; "
-                                   "pass decoder= or convert the log to CSV") from None
+        from sparc_quad.gap.lcm_log import load
+
+        return load(path)
     meta = load_sidecar(path)
     robot = robot_for(path, meta)
     rows: list[dict] = []

@@ -1,0 +1,164 @@
+"""An `lcm-logger` file of a spine-node session as a gap trial.
+
+Every event on a sparc-quad channel (`spine_module.messages.channels`) goes through the node's codec
+(`spine_module.messages.decode`): a malformed, truncated or wrong-fingerprint event stops the load with an
+error naming the file, the event number (1-based, in log order) and the channel. Events on other channels
+(LCM's own `LCM_SELF_TEST`, anything else on the bus) are skipped.
+
+One trial sample per `SPARC_SPINE_STATE` event (the node publishes one per control tick):
+- `t`: the state's `utime` (node clock at the start of the tick), s;
+- `q_<joint>`, `dq_<joint>`: the state's `q`/`dq` (q1..q4; q1 is the torso state the node used). q1 is
+  used only if the sidecar leaves it non-fixed; the bench spine's sidecar fixes it (q1 = 0);
+- `tau_cmd_<joint>`: the state's `tau_cmd` (after the node's clamps: what the motors were sent);
+- `tau_meas_<joint>`: the state's `tau_est` (the motors' torque estimate) when finite throughout;
+- `f_ext_x`: `load_cell[0]` when the sidecar names an `ee_frame` and the reading is finite throughout
+  (the bench robot's load cell measures F_x along the base x at the front body's tip; `f_ext_z`, `m_ext_y`
+  are 0). Sidecar `"lcm_load_cell": null` turns this off.
+
+The sidecar (same stem, `.json`) is optional: without one the log is taken to be the SPARC bench spine
+(`robots/sparc_spine`, q1 fixed at 0, actuated q2..q4, ee frame `end_effector`, `rate_hz` from the
+node's rate, 1 kHz, or the median state period when that is far from it).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+
+from spine_module import params as P
+
+log_ = logging.getLogger(__name__)
+NODE_JOINTS = P.ALL_JOINTS  # order of spine_state_t.q / dq: q1..q4
+NODE_ACTUATED = P.ACTUATED_JOINTS  # order of tau_cmd / tau_est: q2..q4
+SPINE_URDF = Path(__file__).resolve().parents[2] / "robots" / "sparc_spine" / "sparc_spine.urdf"
+
+
+def default_meta(path: Path, rate_hz: float) -> dict:
+    """The sidecar of a log without one: the SPARC bench spine."""
+    return {"urdf": os.path.relpath(SPINE_URDF, path.parent), "actuated_joints": list(NODE_ACTUATED),
+            "fixed_joints": {P.BASE_JOINT: 0.0}, "gravity": [0.0, 0.0, -9.81], "ee_frame": "end_effector",
+            "rate_hz": rate_hz, "description": f"spine-node lcm-logger session {path.name} (bench spine)"}
+
+
+TAIL_OK_BYTES = 4096  # an unreadable tail this short is an interrupted last write: warned, not fatal
+
+
+def read_states(path: Path):
+    """(event numbers, decoded SpineStates, unread tail bytes) of the log's spine-state events; every sparc
+    event is validated. Unreadable framing (bad sync word) before the last TAIL_OK_BYTES is an error."""
+    import lcm
+
+    from sparc_quad.gap.trial import TrialError
+    from spine_module.messages import channels, decode
+
+    if not path.exists():
+        raise TrialError(path, "file not found")
+    try:
+        log = lcm.EventLog(str(path), "r")
+    except (OSError, ValueError) as exc:
+        raise TrialError(path, f"cannot open LCM log: {exc}") from exc
+    events, states = [], []
+    i = pos = 0
+    try:
+        while True:
+            try:
+                ev = log.read_next_event()
+            except (OSError, ValueError) as exc:  # truncated or garbled log framing
+                raise TrialError(path, f"event {i + 1}: cannot read the LCM log past event {i}: {exc}") \
+                    from exc
+            if ev is None:
+                break
+            pos = log.tell()
+            i += 1
+            if ev.channel not in channels.ALL:
+                continue
+            try:
+                msg = decode(ev.channel, ev.data)
+            except Exception as exc:  # MessageError, FingerprintError, or a bad enum value
+                raise TrialError(path, f"event {i} (channel {ev.channel!r}, log time {ev.timestamp} us) "
+                                       f"rejected: {exc}") from exc
+            if ev.channel == channels.SPINE_STATE:
+                events.append(i)
+                states.append(msg)
+        size = log.size()
+    finally:
+        log.close()
+    unread = size - pos
+    if unread > TAIL_OK_BYTES:
+        raise TrialError(path, f"event {i + 1}: invalid LCM event header at byte {pos} of {size}; "
+                               f"{unread} bytes after event {i} cannot be read")
+    if unread > 0:
+        log_.warning("%s: last %d bytes (after event %d) are not a whole event (interrupted write?): "
+                     "ignored", path, unread, i)
+    return events, states, unread
+
+
+def load(path: str | Path):
+    """Read an lcm-logger file of a spine-node session as a `Trial` (see the module docstring)."""
+    from sparc_quad.gap.trial import Trial, TrialError, load_sidecar, robot_for, sidecar_path
+
+    path = Path(path)
+    events, states, unread = read_states(path)
+    if not states:
+        raise TrialError(path, "no SPARC_SPINE_STATE events (was the spine node running and on this bus?)")
+    t = np.array([s.stamp_s for s in states], float)
+    q_all = np.array([s.q for s in states], float)
+    dq_all = np.array([s.dq for s in states], float)
+    tau_all = np.array([s.tau_cmd for s in states], float)
+    est_all = np.array([s.tau_est for s in states], float)
+    cell = np.array([s.load_cell[0] for s in states], float)
+
+    def check(name: str, arr: np.ndarray, labels) -> None:
+        bad = np.argwhere(~np.isfinite(arr.reshape(len(arr), -1)))
+        if bad.size:
+            r, c = int(bad[0, 0]), int(bad[0, 1])
+            raise TrialError(path, f"event {events[r]} (SPARC_SPINE_STATE seq {states[r].seq}): "
+                                   f"{name}[{c}] ({labels[c]}) is {arr.reshape(len(arr), -1)[r, c]}",
+                             column=name)
+
+    check("utime", t, ["t"])
+    bad = np.nonzero(np.diff(t) <= 0)[0]
+    if bad.size:
+        r = int(bad[0]) + 1
+        raise TrialError(path, f"event {events[r]}: spine-state time {t[r]:.6f} s does not increase "
+                               f"(previous state, event {events[r - 1]}: {t[r - 1]:.6f} s)",
+                         column="t")
+    check("q", q_all, NODE_JOINTS)
+    check("dq", dq_all, NODE_JOINTS)
+    check("tau_cmd", tau_all, NODE_ACTUATED)
+
+    rate = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else P.CONTROL_RATE_HZ
+    if sidecar_path(path).exists():
+        meta = load_sidecar(path)
+    else:
+        nominal = abs(rate / P.CONTROL_RATE_HZ - 1.0) <= 0.05
+        meta = default_meta(path, P.CONTROL_RATE_HZ if nominal else round(rate, 3))
+    robot = robot_for(path, meta)
+    side = sidecar_path(path)
+    for j in robot.joints:
+        if j not in NODE_JOINTS:
+            raise TrialError(side, f"joint {j!r} of the URDF is not one the spine node logs "
+                                   f"({', '.join(NODE_JOINTS)}); fix it in fixed_joints",
+                             column="fixed_joints")
+    for j in robot.actuated:
+        if j not in NODE_ACTUATED:
+            raise TrialError(side, f"actuated joint {j!r} has no motor in the spine node "
+                                   f"({', '.join(NODE_ACTUATED)})", column="actuated_joints")
+    qi = [NODE_JOINTS.index(j) for j in robot.joints]
+    ai = [NODE_ACTUATED.index(j) for j in robot.actuated]
+    if abs(rate / float(meta["rate_hz"]) - 1.0) > 0.05:
+        raise TrialError(path, f"median spine-state period {1.0 / rate:.6g} s does not match rate_hz "
+                               f"{meta['rate_hz']}", column="t")
+    tau_meas = est_all[:, ai] if np.all(np.isfinite(est_all[:, ai])) else None
+    f_ext = None
+    if robot.ee_frame is not None and meta.get("lcm_load_cell", "f_ext_x") == "f_ext_x" \
+            and np.all(np.isfinite(cell)):
+        f_ext = np.zeros((len(t), 3))
+        f_ext[:, 0] = cell
+    meta = {**meta, "source": {"lcm_log": path.name, "events": int(events[-1]), "spine_states": len(states),
+                               "first_seq": int(states[0].seq), "last_seq": int(states[-1].seq),
+                               "unread_tail_bytes": int(unread)}}
+    return Trial(path, meta, t, q_all[:, qi], dq_all[:, qi], tau_all[:, ai], tau_meas, f_ext, robot)
