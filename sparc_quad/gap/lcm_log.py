@@ -15,6 +15,10 @@ One trial sample per `SPARC_SPINE_STATE` event (the node publishes one per contr
   (the bench robot's load cell measures F_x along the base x at the front body's tip; `f_ext_z`, `m_ext_y`
   are 0). Sidecar `"lcm_load_cell": null` turns this off.
 
+Spine states travel over UDP: up to MAX_FILL_TICKS states lost in a row (seq jumps) are filled in linearly
+in the tick number and listed in `meta["source"]["filled_t"]`; a longer gap, a seq or time that does not
+increase, is an error naming the event.
+
 The sidecar (same stem, `.json`) is optional: without one the log is taken to be the SPARC bench spine
 (`robots/sparc_spine`, q1 fixed at 0, actuated q2..q4, ee frame `end_effector`, `rate_hz` from the
 node's rate, 1 kHz, or the median state period when that is far from it).
@@ -43,6 +47,7 @@ def default_meta(path: Path, rate_hz: float) -> dict:
             "rate_hz": rate_hz, "description": f"spine-node lcm-logger session {path.name} (bench spine)"}
 
 
+MAX_FILL_TICKS = 5  # spine states lost in a row (UDP) that are filled in by interpolation; more is an error
 TAIL_OK_BYTES = 4096  # an unreadable tail this short is an interrupted last write: warned, not fatal
 
 
@@ -129,6 +134,33 @@ def load(path: str | Path):
     check("q", q_all, NODE_JOINTS)
     check("dq", dq_all, NODE_JOINTS)
     check("tau_cmd", tau_all, NODE_ACTUATED)
+    seq = np.array([s.seq for s in states], np.int64)
+    step = np.diff(seq)
+    if np.any(step <= 0):
+        r = int(np.nonzero(step <= 0)[0][0]) + 1
+        raise TrialError(path, f"event {events[r]}: spine-state seq {seq[r]} after {seq[r - 1]} (event "
+                               f"{events[r - 1]}) does not increase", column="seq")
+    if np.any(step > MAX_FILL_TICKS + 1):
+        r = int(np.nonzero(step > MAX_FILL_TICKS + 1)[0][0]) + 1
+        raise TrialError(path, f"event {events[r]}: {int(step[r - 1]) - 1} spine states missing between seq "
+                               f"{seq[r - 1]} (event {events[r - 1]}) and {seq[r]}; at most {MAX_FILL_TICKS} "
+                               "lost in a row are filled in (cut the log there, load both parts as trials)",
+                         column="seq")
+    filled: list[float] = []
+    if np.any(step > 1):  # a datagram the logger missed: fill the tick in, linearly in the tick number
+        grid = np.arange(seq[0], seq[-1] + 1)
+        lost = ~np.isin(grid, seq)
+
+        def fill(arr: np.ndarray) -> np.ndarray:
+            flat = arr.reshape(len(arr), -1)
+            out = np.column_stack([np.interp(grid, seq, c) for c in flat.T])
+            return out.reshape(len(grid), *arr.shape[1:])
+
+        t, q_all, dq_all = fill(t), fill(q_all), fill(dq_all)
+        tau_all, est_all, cell = fill(tau_all), fill(est_all), fill(cell)
+        filled = t[lost].tolist()
+        log_.warning("%s: %d spine state(s) missing from the log (lost datagrams?), filled in linearly at "
+                     "t = %s s", path, len(filled), ", ".join(f"{x:.4f}" for x in filled[:10]))
 
     rate = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else P.CONTROL_RATE_HZ
     if sidecar_path(path).exists():
@@ -160,5 +192,5 @@ def load(path: str | Path):
         f_ext[:, 0] = cell
     meta = {**meta, "source": {"lcm_log": path.name, "events": int(events[-1]), "spine_states": len(states),
                                "first_seq": int(states[0].seq), "last_seq": int(states[-1].seq),
-                               "unread_tail_bytes": int(unread)}}
+                               "unread_tail_bytes": int(unread), "filled_t": filled}}
     return Trial(path, meta, t, q_all[:, qi], dq_all[:, qi], tau_all[:, ai], tau_meas, f_ext, robot)
