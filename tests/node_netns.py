@@ -27,6 +27,10 @@ def unshare_prefix() -> tuple[str, ...] | None:
     return None
 
 
+# the recorded session of tests/conftest.py::lcm_run: static push-pull at K N/m over one PERIOD s
+K, PERIOD = 500.0, 2.0
+
+
 def lcm_tool(name: str) -> str:
     """An LCM tool shipped with the lcm wheel. The wheel's console script is a Python wrapper that runs
     the real binary as a child (a signal to the wrapper does not reach it), so prefer the binary."""

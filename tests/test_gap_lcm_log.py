@@ -19,15 +19,14 @@ from sparc_quad.gap.trial import TrialError, load_lcm_log, load_trial
 from sparc_quad.gap.workflow import load_trials
 from spine_module import params as P
 from spine_module.messages import SpineState, TorsoState, channels, codec
-from tests.node_netns import unshare_prefix
-from tests.test_node_lcm_netns import PERIOD, lcm_run  # noqa: F401  (the node tests' recorded session)
+from tests.node_netns import PERIOD, unshare_prefix
 
 needs_netns = pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")
 
 
 @needs_netns
 @pytest.mark.netns
-def test_recorded_session_loads_as_trial(lcm_run):  # noqa: F811
+def test_recorded_session_loads_as_trial(lcm_run):
     out, logs = lcm_run
     log = out / "session.lcmlog"
     a = np.load(out / "bench_robot.npz")  # the spine states the robot received from the node

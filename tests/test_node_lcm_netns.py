@@ -12,9 +12,6 @@ Reduced size (2 s of a 2 s push-pull at k_x = 500 N/m) to keep the default suite
 from __future__ import annotations
 
 import json
-import shlex
-import sys
-from pathlib import Path
 
 import lcm
 import numpy as np
@@ -25,36 +22,10 @@ from sparc_quad.sim.bench_robot import run_inprocess, static_push_script, stiffn
 from spine_module.messages import FingerprintError, MessageError, channels, codec, decode
 from spine_module.node import NodeConfig
 from spine_module.safety import SafetyConfig
-from tests.node_netns import lcm_tool, run_in_netns, unshare_prefix
-
-ROOT = Path(__file__).resolve().parents[1]
-K, PERIOD = 500.0, 2.0
+from tests.node_netns import PERIOD, K, unshare_prefix
 
 pytestmark = [pytest.mark.netns,
               pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")]
-
-
-@pytest.fixture(scope="module")
-def lcm_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("lcm_run")
-    py = shlex.quote(sys.executable)
-    exp = f"--experiment static --k {K} --period {PERIOD} --cycles 1"
-    script = f"""
-export PYTHONPATH={shlex.quote(str(ROOT))}
-{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 2 --soft-start 0 \
-    --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
-NODE=$!
-{shlex.quote(lcm_tool("lcm-logger"))} -q -f {out}/session.lcmlog > {out}/logger.out 2>&1 &
-LOGGER=$!
-{py} -m sparc_quad bench-robot --clock lockstep {exp} --out {out} > {out}/robot.out 2> {out}/robot.err
-wait $NODE
-kill -INT $LOGGER
-wait $LOGGER || true
-"""
-    r = run_in_netns(script, ROOT)
-    logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
-    assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"
-    return out, logs
 
 
 @pytest.fixture(scope="module")

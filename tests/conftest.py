@@ -1,0 +1,38 @@
+"""Fixtures shared across test modules."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.node_netns import PERIOD, K, lcm_tool, run_in_netns
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def lcm_run(tmp_path_factory):
+    """A recorded node session: `spine-node` + `bench-robot` (static push-pull, k_x = K, one PERIOD) +
+    `lcm-logger`, as separate processes on UDP multicast in a network namespace. Returns (folder, logs)."""
+    out = tmp_path_factory.mktemp("lcm_run")
+    py = shlex.quote(sys.executable)
+    exp = f"--experiment static --k {K} --period {PERIOD} --cycles 1"
+    script = f"""
+export PYTHONPATH={shlex.quote(str(ROOT))}
+{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 2 --soft-start 0 \
+    --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
+NODE=$!
+{shlex.quote(lcm_tool("lcm-logger"))} -q -f {out}/session.lcmlog > {out}/logger.out 2>&1 &
+LOGGER=$!
+{py} -m sparc_quad bench-robot --clock lockstep {exp} --out {out} > {out}/robot.out 2> {out}/robot.err
+wait $NODE
+kill -INT $LOGGER
+wait $LOGGER || true
+"""
+    r = run_in_netns(script, ROOT)
+    logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
+    assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"
+    return out, logs
