@@ -49,7 +49,7 @@ class Harness:
         self.link = InProcessLink()
         self.io = InProcessNodeIO()
         cfg = NodeConfig(safety=safety or SafetyConfig())
-        ctrls = Controllers(self.ctrl, self.ctrl, self.ctrl)
+        ctrls = Controllers(impedance=self.ctrl, pd=self.ctrl)
         self.node = SpineNode(ctrls, InProcessBus(self.link), self.io, cfg)
         self.k = 0
         self.q = P.Q_EQUILIBRIUM[1:].copy()

@@ -318,3 +318,20 @@ def test_soft_start_moves_the_target_in_from_the_current_pose():
         expect = x0 + min(1.0, s.gain_scale) * (x_cmd - x0)
         np.testing.assert_allclose(h.ctrl.x_d, expect, atol=1e-12)
     np.testing.assert_allclose(h.ctrl.x_d, x_cmd)
+
+
+def test_friction_compensation_follows_the_command():
+    """The command's friction_compensation flag switches eq. (4) on the node's one impedance controller:
+    with the same state, the commanded torques differ by exactly the Stribeck torque of the joint speeds."""
+    from spine_module.control import StribeckFriction
+    from spine_module.node import Controllers
+
+    tau = {}
+    for flag in (True, False):
+        h = Harness(command=SpineCommand(mode=Mode.IMPEDANCE, friction_compensation=flag))
+        h.node.ctrl = Controllers.default()
+        h.dq = np.array([0.5, -0.5, 0.2])
+        h.step(600)  # past the soft start
+        assert h.node.ctrl.impedance.friction_enabled is flag
+        tau[flag] = np.array(h.states[-1].tau_cmd)
+    np.testing.assert_allclose(tau[True] - tau[False], StribeckFriction.nominal().torque(h.dq), atol=1e-9)

@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from sparc_quad.sim.bench_robot import InProcessRobotPort, LcmRobotPort, RobotPort, states_arrays
-from sparc_quad.sim.spine_drive import SpineGains, planar_task_pose
+from sparc_quad.sim.spine_drive import SpineGains, TaskKinematics
 from spine_module import params as P
 from spine_module.buses.base import MotorCommand, MotorFeedback
 from spine_module.buses.inprocess import InProcessBus, InProcessLink
@@ -63,7 +63,8 @@ class NodeSpine:
         self.last_cmd: MotorCommand | None = None
         self._cmd_t: float | None = None
         self.tau = np.zeros(3)
-        self.x = np.zeros(3)
+        self.kinematics = TaskKinematics()
+        self.x = self.kinematics.x
         self.unanswered = 0
         self.sent_q1: list[float] = []  # the q1 published each tick (what the node must have used)
         self._final_states: list[SpineState] | None = None
@@ -130,7 +131,7 @@ class NodeSpine:
         else:
             self.tau[:] = 0.0
         np.clip(self.tau, -P.TORQUE_LIMIT_NM, P.TORQUE_LIMIT_NM, out=self.tau)
-        self.x[:] = planar_task_pose((est.q1, *q))
+        self.kinematics.update(np.concatenate(([est.q1], q)), np.concatenate(([est.dq1], dq)))
         self.k += 1
         return self.tau
 

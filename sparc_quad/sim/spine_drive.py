@@ -3,7 +3,6 @@ the emulated estimator's q1) or, for the rigid-spine baseline, a stiff joint PD 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,28 +26,30 @@ class RigidSpine:
         self.kp, self.kd = kp, kd
         self.q_eq = [float(v) for v in P.Q_EQUILIBRIUM[1:]]
         self.tau = np.zeros(3)
-        self.x = np.array(P.X_EQUILIBRIUM, dtype=float)
-        self.dx = np.zeros(3)
+        self.kinematics = TaskKinematics()
+        self.x, self.dx = self.kinematics.x, self.kinematics.dx
         self.ok = True
 
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
         for i in range(3):
             self.tau[i] = self.kp * (self.q_eq[i] - q[i + 1]) - self.kd * dq[i + 1]
-        self.x[:] = planar_task_pose(q)
+        self.kinematics.update(q, dq)
         return self.tau
 
 
-def planar_task_pose(q) -> tuple[float, float, float]:
-    """Front body tip (x, z, theta) in the hind body frame; z up, theta about +y (same chain as the URDF)."""
-    hb, hs, fs, fb = P.DEFAULT_SPINE.links
-    x = hb.length_m
-    z = 0.0
-    a = 0.0
-    for qi, link in ((q[1], hs), (q[2], fs), (q[3], fb)):
-        a += qi
-        x += link.length_m * math.cos(a)
-        z -= link.length_m * math.sin(a)
-    return x, z, a
+class TaskKinematics:
+    """The spine's task pose and velocity (x, z, theta in the hind-body frame) from `SpineModel`, for
+    drives that run no task controller of their own. `x` and `dx` are updated in place."""
+
+    def __init__(self) -> None:
+        from spine_module.model import SpineModel
+
+        self.model = SpineModel()
+        self.data = self.model.create_data()
+        self.x, self.dx = self.data.x, self.data.dx
+
+    def update(self, q: np.ndarray, dq: np.ndarray) -> None:
+        self.model.update_kinematics(self.data, np.asarray(q, dtype=float), np.asarray(dq, dtype=float))
 
 
 class ImpedanceSpine:

@@ -24,7 +24,7 @@ class ImpedanceController(TaskController):
                  k: object = P.K_DEFAULT, d: object = P.D_DEFAULT, dls_lambda: float = P.DLS_LAMBDA) -> None:
         super().__init__(model, k, d)
         self.friction = friction
-        self.friction_enabled = friction is not None
+        self.friction_enabled = friction is not None  # run-time switch; needs a friction model to act
         self.lambda2 = dls_lambda**2
         self._ddq = np.zeros(model.nv)
         self._ddq_act = self._ddq[1:]
@@ -48,7 +48,7 @@ class ImpedanceController(TaskController):
             tau = self._tau_full
             tau[:] = model.rnea(data, q, dq, self._ddq)
             tau[1:] += J.T @ self._spring_damper()
-            if self.friction_enabled and self.friction is not None:
+            if self.friction_enabled and self.friction is not None:  # eq. (4)
                 tau[1:] += self.friction.torque(dq[1:])
         except Exception:  # wrong shapes or types: name the input, never raise in the loop
             return self._fail(self.check_state(q, dq, ddq1) or "controller failed on this input")

@@ -16,10 +16,9 @@ from spine_module import params
 
 @dataclass
 class Controllers:
-    impedance: Any  # eq. (3) with eq. (4) friction compensation
-    impedance_plain: Any  # eq. (3) without friction compensation
+    impedance: Any  # eq. (3); eq. (4) friction compensation switched by its `friction_enabled`
     pd: Any  # eq. (5)
-    _kin: Any = field(default=None, repr=False)
+    _kin: Any = field(default=None, repr=False, kw_only=True)
 
     def task_state(self, q: np.ndarray, dq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Task pose and velocity by forward kinematics, for modes that run no task controller."""
@@ -38,5 +37,4 @@ class Controllers:
 
         model = SpineModel(spine=spine)
         return cls(impedance=ImpedanceController(model, friction=StribeckFriction.nominal()),
-                   impedance_plain=ImpedanceController(model, friction=None),
                    pd=TaskPDController(model))

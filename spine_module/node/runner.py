@@ -231,8 +231,8 @@ class SpineNode:
         if mode == Mode.PD:
             ctrl = self.ctrl.pd
         else:
-            with_friction = c.friction_compensation or v.default_gains
-            ctrl = self.ctrl.impedance if with_friction else self.ctrl.impedance_plain
+            ctrl = self.ctrl.impedance
+            ctrl.friction_enabled = c.friction_compensation or v.default_gains
         k, d = (scfg.default_k, scfg.default_d) if v.default_gains else (c.k, c.d)
         ddq1 = self.torso.ddq1 if self.torso is not None and self.torso.ddq1_valid else 0.0
         x_d = np.asarray(c.x_d, dtype=float)
