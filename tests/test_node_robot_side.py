@@ -69,3 +69,21 @@ def test_inprocess_node_equals_rig_without_soft_start():
     log = rig.run(ctrl, 0.3)
     np.testing.assert_allclose(np.array([s.x for s in states]), log.x_meas, rtol=0, atol=1e-12)
     assert np.array([s.tau_cmd for s in states]) == pytest.approx(log.tau, abs=1e-12)
+
+
+def test_inprocess_bus_hands_over_copies_that_share_no_arrays():
+    from spine_module.buses.base import MotorCommand, MotorFeedback
+    from spine_module.buses.inprocess import InProcessBus, InProcessLink
+
+    link = InProcessLink()
+    bus = InProcessBus(link)
+    fb = MotorFeedback(q=np.ones(3), dq=np.ones(3), tau=np.ones(3), seq=4)
+    link.robot.publish_feedback(fb)
+    fb.q[:] = 9.0  # the robot reuses its buffer
+    got = bus.receive(0.0)
+    assert isinstance(got, MotorFeedback) and got.seq == 4 and np.all(got.q == 1.0)
+    cmd = MotorCommand(tau_ff=np.full(3, 0.5))
+    bus.send(cmd)
+    cmd.tau_ff[:] = -1.0
+    taken, _ = link.robot.take_command(0.0)
+    assert isinstance(taken, MotorCommand) and np.all(taken.tau_ff == 0.5)

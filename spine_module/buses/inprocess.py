@@ -8,7 +8,6 @@ copies, never shared, so neither side can mutate the other's arrays.
 
 from __future__ import annotations
 
-import copy
 import threading
 import time
 
@@ -37,7 +36,7 @@ class RobotEnd:
         with link._cv:
             if link._feedback is not None:
                 link.dropped_feedback += 1
-            link._feedback = copy.deepcopy(fb)
+            link._feedback = fb.copy()
             link._cv.notify_all()
 
     def take_command(self, timeout_s: float | None = 0.0) -> tuple[MotorCommand, int] | None:
@@ -64,7 +63,7 @@ class InProcessBus(MotorBus):
         with link._cv:
             if link._command is not None:
                 link.dropped_commands += 1
-            link._command = (copy.deepcopy(command), self._last_feedback_seq)
+            link._command = (command.copy(), self._last_feedback_seq)
             link._cv.notify_all()
 
     def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
