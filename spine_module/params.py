@@ -73,7 +73,6 @@ BASE_JOINT = "q1"
 ACTUATED_JOINTS: tuple[str, ...] = ("q2", "q3", "q4")
 ALL_JOINTS: tuple[str, ...] = (BASE_JOINT, *ACTUATED_JOINTS)
 EE_FRAME = "end_effector"
-BASE_LINK = "hind_body"
 
 # --- Actuator: Xiaomi CyberGear (Table II and the CyberGear manual) ----------------------------------
 TORQUE_LIMIT_NM = 12.0  # peak output torque
