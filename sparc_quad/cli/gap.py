@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from sparc_quad.gap.trial import TrialError
+from sparc_quad.gap.errors import NumericalError, TrialError
 from sparc_quad.sim.plant_effects import EFFECT_NAMES, PlantEffectsError
 
 
@@ -59,6 +59,9 @@ def run(args: argparse.Namespace) -> int:
     except (TrialError, PlantEffectsError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except NumericalError as exc:  # the input was accepted; a computation on it failed
+        print(f"numerical failure (not bad input): {exc}", file=sys.stderr)
+        return 1
     names = ", ".join(f"{e['name']}@{e['joint']}" for e in rep["effects"]) or "none"
     print(f"verdict: {rep['verdict']}; effects: {names}; ambiguous: {len(rep['ambiguous'])}")
     print(f"report: {args.out / 'report.json'}  plant: {args.out / 'plant.json'}")

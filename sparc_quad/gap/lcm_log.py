@@ -32,6 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
+from sparc_quad.gap.errors import TrialError
+from sparc_quad.gap.lcm_scan import open_checked
+from sparc_quad.gap.sidecar import load_sidecar, sidecar_path
+from sparc_quad.gap.trialdata import Trial, robot_for
 from spine_module import params as P
 
 log_ = logging.getLogger(__name__)
@@ -48,36 +52,25 @@ def default_meta(path: Path, rate_hz: float) -> dict:
 
 
 MAX_FILL_TICKS = 5  # spine states lost in a row (UDP) that are filled in by interpolation; more is an error
-TAIL_OK_BYTES = 4096  # an unreadable tail this short is an interrupted last write: warned, not fatal
 
 
 def read_states(path: Path):
     """(event numbers, decoded SpineStates, unread tail bytes) of the log's spine-state events; every sparc
-    event is validated. Unreadable framing (bad sync word) before the last TAIL_OK_BYTES is an error."""
-    import lcm
-
-    from sparc_quad.gap.trial import TrialError
+    event is validated. Event headers are checked first (`lcm_scan`): unreadable framing before the last
+    TAIL_OK_BYTES is an error, and lcm's reader is handed only the whole events."""
     from spine_module.messages import channels, decode
 
-    if not path.exists():
-        raise TrialError(path, "file not found")
-    try:
-        log = lcm.EventLog(str(path), "r")
-    except (OSError, ValueError) as exc:
-        raise TrialError(path, f"cannot open LCM log: {exc}") from exc
+    log, n_events, unread = open_checked(path)
     events, states = [], []
-    i = pos = 0
     try:
-        while True:
+        for i in range(1, n_events + 1):
             try:
                 ev = log.read_next_event()
-            except (OSError, ValueError) as exc:  # truncated or garbled log framing
-                raise TrialError(path, f"event {i + 1}: cannot read the LCM log past event {i}: {exc}") \
+            except (OSError, ValueError) as exc:  # cannot happen after the scan, but never a traceback
+                raise TrialError(path, f"event {i}: cannot read the LCM log past event {i - 1}: {exc}") \
                     from exc
             if ev is None:
-                break
-            pos = log.tell()
-            i += 1
+                raise TrialError(path, f"event {i}: lcm's reader stopped early")
             if ev.channel not in channels.ALL:
                 continue
             try:
@@ -88,22 +81,16 @@ def read_states(path: Path):
             if ev.channel == channels.SPINE_STATE:
                 events.append(i)
                 states.append(msg)
-        size = log.size()
     finally:
         log.close()
-    unread = size - pos
-    if unread > TAIL_OK_BYTES:
-        raise TrialError(path, f"event {i + 1}: invalid LCM event header at byte {pos} of {size}; "
-                               f"{unread} bytes after event {i} cannot be read")
     if unread > 0:
         log_.warning("%s: last %d bytes (after event %d) are not a whole event (interrupted write?): "
-                     "ignored", path, unread, i)
+                     "ignored", path, unread, n_events)
     return events, states, unread
 
 
 def load(path: str | Path):
     """Read an lcm-logger file of a spine-node session as a `Trial` (see the module docstring)."""
-    from sparc_quad.gap.trial import Trial, TrialError, load_sidecar, robot_for, sidecar_path
 
     path = Path(path)
     events, states, unread = read_states(path)

@@ -127,13 +127,13 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
         max_effects: int = I.MAX_EFFECTS) -> dict:
     t_start = time.perf_counter()
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     trials = load_trials(paths)
     robot = trials[0].robot
     plant_file = Path(nominal_plant) if nominal_plant else trials[0].plant_path()
     nominal = PlantEffects.load(plant_file) if plant_file else PlantEffects(robot.actuated)
     if nominal.joints != robot.actuated:
         raise TrialError(plant_file, f"plant joints {nominal.joints} != actuated joints {robot.actuated}")
+    out.mkdir(parents=True, exist_ok=True)
     parts, heldout = split(trials)
     rate = trials[0].rate_hz
     step = max(1, round(rate / (2 * cutoff_hz)))
