@@ -359,6 +359,9 @@ class Selector:
         if grid is None:
             t = Term(name, joint)
             return t, self.fit([*selected, t])
+        if len(grid) < 2:  # a constant signal: nothing to profile
+            t = Term(name, joint, theta=grid[0] if grid else 0.0)
+            return t, self.fit([*selected, t])
         fits = [self.fit([*selected, Term(name, joint, theta=g)]) for g in grid]
         bics = np.array([f.bic for f in fits])
         i = int(np.argmin(bics))

@@ -13,8 +13,8 @@ import numpy as np
 from sparc_quad.gap.workflow import REGIMES
 
 
-def _fmt(x: float) -> str:
-    return f"{x:.4g}"
+def _fmt(x: float | None) -> str:
+    return "not replayed" if x is None else f"{x:.4g}"
 
 
 def plot_regimes(path: Path, report: dict, robot) -> None:

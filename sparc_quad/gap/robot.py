@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -9,6 +10,10 @@ import numpy as np
 import pinocchio as pin
 
 from sparc_quad.sim.plant_effects import PlantEffects
+
+log = logging.getLogger(__name__)
+SINGULAR_REL = 1e-9  # a mass-matrix diagonal entry below this x the largest is taken as zero
+CHECK_POSES = 8  # random poses (within the joint limits) at which the mass matrix is checked at load
 
 
 class RobotError(ValueError):
@@ -61,6 +66,28 @@ class Robot:
         self.nv = self.model.nv
         self.lower = self.model.lowerPositionLimit.copy()
         self.upper = self.model.upperPositionLimit.copy()
+        self.singular_joints = self.massless_joints()
+        for j in self.singular_joints:
+            log.warning("%s: joint %r moves no mass or inertia (link %r): its mass-matrix row is zero, "
+                        "so forward dynamics (replay) needs a rotor inertia on it; inverse dynamics is "
+                        "unaffected",
+                        urdf, j, self.child_link(j))
+
+    def massless_joints(self, armature: np.ndarray | None = None) -> list[str]:
+        """Joints whose mass-matrix diagonal (plus `armature`, per joint) is zero at every checked pose:
+        a massless distal link. Pinocchio's model as loaded (no plant effects) unless armature is given."""
+        rng = np.random.default_rng(0)
+        lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
+        hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
+        data = self.model.createData()
+        diag = np.zeros(self.nv)
+        for k in range(CHECK_POSES):
+            q = 0.5 * (lo + hi) if k == 0 else rng.uniform(lo, hi)
+            diag = np.maximum(diag, np.diag(pin.crba(self.model, data, q)))
+        if armature is not None:
+            diag = diag + armature
+        tiny = SINGULAR_REL * max(float(diag.max()), 1e-12)
+        return [self.joints[v] for v in range(self.nv) if diag[v] <= tiny]
 
     def child_link(self, joint: str) -> str:
         """Name of the link a joint moves (first body frame attached to that joint)."""
@@ -80,13 +107,17 @@ class Robot:
         return self.model if plant is None else plant.apply_to_pinocchio(self.model)
 
     def forward_step(self, model, data, q: np.ndarray, dq: np.ndarray, tau: np.ndarray,
-                     plant: PlantEffects, dt: float) -> tuple[np.ndarray, np.ndarray]:
+                     plant: PlantEffects, dt: float, prescribed: np.ndarray | None = None,
+                     ddq_prescribed: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """One step of length dt: joint torque `tau` (without friction) held, the plant's friction
         linearly implicit at the step's midpoint velocity (stable for a sharp tanh on a light joint),
         semi-implicit Euler. Returns (q, dq) after the step.
 
         The friction applied is f(dq_k) + f'(dq_k) (dq_k+1 - dq_k) / 2 ~ f((dq_k + dq_k+1) / 2), which is
         what the inverse-dynamics residual evaluates.
+        `prescribed` (velocity indices) with `ddq_prescribed`: those joints follow the given acceleration
+        (a joint with no inertia cannot be integrated); the others are solved with it as a known input.
+        Raises np.linalg.LinAlgError if the (remaining) mass matrix is singular.
         """
         act = self.act_idx
         M = pin.crba(model, data, q)
@@ -97,7 +128,14 @@ class Robot:
         rhs[act] += fr
         mjj = np.diag(M)[act]
         M[act, act] += 0.5 * dt * np.maximum(slope, -mjj / dt)
-        ddq = np.linalg.solve(M, rhs)
+        if prescribed is not None and len(prescribed):
+            free = np.setdiff1d(np.arange(self.nv), prescribed)
+            ddq = np.zeros(self.nv)
+            ddq[prescribed] = ddq_prescribed
+            ddq[free] = np.linalg.solve(M[np.ix_(free, free)], rhs[free] - M[np.ix_(free, prescribed)]
+                                        @ ddq_prescribed)
+        else:
+            ddq = np.linalg.solve(M, rhs)
         dq = dq + dt * ddq
         return q + dt * dq, dq
 

@@ -143,8 +143,8 @@ def simulate(robot: Robot, true_plant: PlantEffects, nominal_plant: PlantEffects
              quantise: bool = True) -> Trial:
     """Closed-loop run; returns a Trial (measured q, dq; commanded tau).
 
-    Joint PD gains from the nominal mass matrix's diagonal at the excitation's centre:
-    kp = M_jj w^2, kd = 1.4 M_jj w, w = 2 pi bandwidth_hz.
+    Joint PD gains from the nominal mass matrix's diagonal at the excitation's centre (at least 1 % of its
+    largest entry): kp = M_jj w^2, kd = 1.4 M_jj w, w = 2 pi bandwidth_hz.
     """
     if len(robot.actuated) != robot.nv:
         raise ValueError("synth needs every non-fixed joint actuated")
@@ -156,6 +156,7 @@ def simulate(robot: Robot, true_plant: PlantEffects, nominal_plant: PlantEffects
     ff = Robot.rnea(nom_model, q_d, dq_d, ddq_d) - nominal_plant.friction_torque(dq_d)
     w = 2 * np.pi * bandwidth_hz
     m_diag = np.diag(pin.crba(nom_model, nom_model.createData(), ex.q0))
+    m_diag = np.maximum(m_diag, 1e-2 * m_diag.max())  # a massless link still gets a (soft) servo
     kp, kd = m_diag * w**2, 1.4 * m_diag * w
     true_model = robot.plant_model(true_plant)
     data = true_model.createData()

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from sparc_quad.gap import identify as I
+from sparc_quad.gap.errors import NumericalError
 from sparc_quad.gap.replay import replay
 from sparc_quad.gap.trial import Trial, TrialError, load_trial, robot_for
 from sparc_quad.sim.plant_effects import PlantEffects
@@ -119,7 +120,8 @@ def localise(blocks: list[I.Block], res: list[np.ndarray], floor: np.ndarray, ro
 
 
 def _per_joint(robot, arr) -> dict:
-    return {j: float(arr[v]) for v, j in enumerate(robot.joints)}
+    """joint -> value; NaN (not computed, e.g. a joint that cannot be replayed) becomes null."""
+    return {j: (float(arr[v]) if np.isfinite(arr[v]) else None) for v, j in enumerate(robot.joints)}
 
 
 def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Path | None = None,
@@ -185,8 +187,11 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
     floor = fa
     gap_b = np.sqrt(np.mean(np.vstack(res_before) ** 2, axis=0))
     gap_a = np.sqrt(np.mean(np.vstack(res_after) ** 2, axis=0))
-    rep_b = [replay(b.trial, robot, nominal, window_s) for b in ho_blocks]
-    rep_a = [replay(b.trial, robot, plant, window_s) for b in ho_blocks]
+    try:
+        rep_b = [replay(b.trial, robot, nominal, window_s) for b in ho_blocks]
+        rep_a = [replay(b.trial, robot, plant, window_s) for b in ho_blocks]
+    except np.linalg.LinAlgError as exc:
+        raise NumericalError(f"replay of the held-out data: {exc} (mass matrix)") from exc
     rb = np.sqrt(np.mean(np.vstack([r["window_rms"] for r in rep_b]) ** 2, axis=0))
     ra = np.sqrt(np.mean(np.vstack([r["window_rms"] for r in rep_a]) ** 2, axis=0))
     closed = bool(np.all(gap_a <= GAP_CLOSED_FACTOR * floor))
@@ -206,6 +211,9 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
                       "replay_rms_rad": _per_joint(robot, ra)},
         "gap_after_over_floor": _per_joint(robot, gap_a / np.maximum(floor, 1e-12)),
         "gap_closed_factor": GAP_CLOSED_FACTOR,
+        "model_checks": {"massless_joints": robot.singular_joints,
+                         "not_replayed_nominal": rep_b[0]["not_replayed"],
+                         "not_replayed_final": rep_a[0]["not_replayed"]},
         "localisation": loc,
         "selection_log": sel_log,
         "settings": {"cutoff_hz": cutoff_hz, "decimation_step": step, "decimated_rate_hz": rate / step,
