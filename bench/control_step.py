@@ -1,7 +1,9 @@
 """Cost of one control step against one raw pinocchio RNEA call on the same model, in the same run.
 
 Prints and writes (--json) median wall times and ratios: impedance step (eq. 3 + eq. 4), impedance
-without friction compensation, task PD step (eq. 5), kinematics update, and `pinocchio.rnea`.
+without friction compensation, task PD step (eq. 5) on the default backend (the numba-compiled kernel
+where numba works), the same steps on the pinocchio reference path, kinematics update, and
+`pinocchio.rnea`. Goal (issue 11): impedance and PD steps at most 3x one rnea.
 Medians over repeated batches make the ratio robust to a shared, noisy machine.
 """
 
@@ -39,6 +41,8 @@ def main() -> int:
     ap.add_argument("--batches", type=int, default=30)
     ap.add_argument("--per-batch", type=int, default=2000)
     args = ap.parse_args()
+    if args.batches < 1 or args.per_batch < 1:
+        ap.error("--batches and --per-batch must be at least 1")
 
     model = SpineModel()
     rng = np.random.default_rng(0)
@@ -49,12 +53,16 @@ def main() -> int:
     imp = ImpedanceController(model, friction=StribeckFriction.nominal())
     imp_nf = ImpedanceController(model, friction=None)
     pd = TaskPDController(model)
+    imp_ref = ImpedanceController(model, friction=StribeckFriction.nominal(), backend="pinocchio")
+    pd_ref = TaskPDController(model, backend="pinocchio")
     kin = model.create_data()
     cases = {
         "rnea_us": lambda: pin.rnea(model.model, raw, q, dq, a),
         "impedance_step_us": lambda: imp.step(q, dq, 0.0),
         "impedance_no_friction_step_us": lambda: imp_nf.step(q, dq, 0.0),
         "pd_step_us": lambda: pd.step(q, dq),
+        "impedance_pinocchio_step_us": lambda: imp_ref.step(q, dq, 0.0),
+        "pd_pinocchio_step_us": lambda: pd_ref.step(q, dq),
         "kinematics_us": lambda: model.update_kinematics(kin, q, dq),
     }
     for fn in cases.values():  # warm up
@@ -70,7 +78,12 @@ def main() -> int:
         "impedance_over_rnea": result["impedance_step_us"] / rnea,
         "impedance_no_friction_over_rnea": result["impedance_no_friction_step_us"] / rnea,
         "pd_over_rnea": result["pd_step_us"] / rnea,
-        "target_impedance_over_rnea": 10.0,
+        "impedance_pinocchio_over_rnea": result["impedance_pinocchio_step_us"] / rnea,
+        "pd_pinocchio_over_rnea": result["pd_pinocchio_step_us"] / rnea,
+        "goal_impedance_over_rnea": 3.0,
+        "goal_pd_over_rnea": 3.0,
+        "backend": imp.backend,
+        "loadavg": Path("/proc/loadavg").read_text().split()[:3] if Path("/proc/loadavg").exists() else None,
         "python": platform.python_version(), "pinocchio": pin.__version__, "machine": platform.machine(),
     })
     for k, v in result.items():

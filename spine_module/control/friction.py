@@ -30,6 +30,10 @@ class StribeckFriction:
                        p.b_nm_s_rad) for p in self.params]
         self._out = np.zeros(len(self.params))
 
+    def coefficient_rows(self) -> np.ndarray:
+        """(joints, 6): tau_c, tau_s - tau_c, 1/dq_s, alpha, beta, b per joint (compiled step's layout)."""
+        return np.array(self._rows, dtype=float)
+
     @classmethod
     def nominal(cls, n: int = len(P.ACTUATED_JOINTS)) -> StribeckFriction:
         """The compensator's identified estimate (params.NOMINAL_FRICTION on every joint)."""

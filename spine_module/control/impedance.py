@@ -14,26 +14,44 @@ import numpy as np
 from scipy.linalg.lapack import dgesv as _gesv
 
 from spine_module import params as P
+from spine_module.control import kernel as kn
 from spine_module.control.friction import StribeckFriction
 from spine_module.control.output import ControlOutput, TaskController
 from spine_module.model import SpineModel
 
 
 class ImpedanceController(TaskController):
+    _KERNEL_MODE = kn.MODE_IMPEDANCE
+
     def __init__(self, model: SpineModel, friction: StribeckFriction | None = None,
-                 k: object = P.K_DEFAULT, d: object = P.D_DEFAULT, dls_lambda: float = P.DLS_LAMBDA) -> None:
-        super().__init__(model, k, d)
+                 k: object = P.K_DEFAULT, d: object = P.D_DEFAULT, dls_lambda: float = P.DLS_LAMBDA,
+                 backend: str = "auto") -> None:
+        super().__init__(model, k, d, backend=backend)
         self.friction = friction
+        if friction is not None:
+            rows = friction.coefficient_rows().reshape(-1)
+            self._ctrl[kn.C_FRICTION + 3:kn.C_FRICTION + 3 + rows.size] = rows
         self.friction_enabled = friction is not None  # run-time switch; needs a friction model to act
         self.lambda2 = dls_lambda**2
+        self._ctrl[kn.C_LAMBDA2] = self.lambda2
         self._ddq = np.zeros(model.nv)
         self._ddq_act = self._ddq[1:]
         self._a = np.zeros(3)
         self._jjt = np.zeros((3, 3))
         self._lambda2_eye = self.lambda2 * np.eye(3)
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
-        """One cycle: joint state (rad, rad/s, [q1..q4]) and torso acceleration q̈1 (rad/s²) → torques."""
+    @property
+    def friction_enabled(self) -> bool:
+        """Eq. (4) compensation on/off at run time; acts only with a friction model."""
+        return self._friction_enabled
+
+    @friction_enabled.setter
+    def friction_enabled(self, value: bool) -> None:
+        self._friction_enabled = bool(value)
+        self._ctrl[kn.C_FRICTION_ON] = 1.0 if (value and self.friction is not None) else 0.0
+
+    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
+        """The pinocchio path: the reference the compiled kernel is checked against, and its fallback."""
         try:
             model, data = self.model, self.data
             model.update_kinematics(data, q, dq)

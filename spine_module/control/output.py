@@ -8,7 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spine_module import params as P
+from spine_module.control import kernel as kn
 from spine_module.model import N_ACT, SpineData, SpineModel
+
+BACKENDS = ("auto", "numba", "pinocchio")
 
 
 @dataclass
@@ -29,6 +32,22 @@ class ControlOutput:
     error: str | None = None
 
 
+def load_compiled_step(backend: str) -> object | None:
+    """The compiled whole-step kernel for backend "numba"/"auto", None for "pinocchio" (or "auto" without
+    numba). "numba" without a working numba is an error naming the cause."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend == "pinocchio":
+        return None
+    try:
+        from spine_module.control.compiled import spine_step
+    except Exception as exc:  # ImportError, or numba failing to compile/load on this platform
+        if backend == "numba":
+            raise RuntimeError(f"backend='numba' needs a working numba: {exc}") from exc
+        return None
+    return spine_step
+
+
 def _vec3(value: object, name: str) -> np.ndarray:
     arr = np.asarray(value, dtype=float).reshape(-1)
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
@@ -37,22 +56,42 @@ def _vec3(value: object, name: str) -> np.ndarray:
 
 
 class TaskController:
-    """Shared state of the task-space laws: diagonal K and D, the target, the workspace, the clamp."""
+    """Shared state of the task-space laws: diagonal K and D, the target, the workspace, the clamp.
 
-    def __init__(self, model: SpineModel, k: object = P.K_DEFAULT, d: object = P.D_DEFAULT) -> None:
+    backend: "pinocchio" runs the reference path (pinocchio kinematics and RNEA, numpy algebra);
+    "numba" the compiled whole-step kernel generated from the same `pin.Model` (kernel.py); "auto" (the
+    default) the kernel where numba works, else pinocchio. Gains, target and limits live in one packed
+    array that both paths read (K, D, x_d, dx_d, ddx_d are views into it).
+    """
+
+    _KERNEL_MODE = kn.MODE_PD
+
+    def __init__(self, model: SpineModel, k: object = P.K_DEFAULT, d: object = P.D_DEFAULT,
+                 backend: str = "auto") -> None:
         self.model = model
         self.data: SpineData = model.create_data()
-        self.K = np.zeros(3)
-        self.D = np.zeros(3)
-        self.x_d = P.X_EQUILIBRIUM.copy()
-        self.dx_d = np.zeros(3)
-        self.ddx_d = np.zeros(3)
-        self.out = ControlOutput()
+        self._compiled = load_compiled_step(backend)
+        self.backend = "numba" if self._compiled is not None else "pinocchio"
+        self._prm = kn.pack_model(model)
+        oc = int(self._prm[kn.H_CTRL])
+        self._ctrl = self._prm[oc:]
+        self._ctrl[kn.C_MODE] = self._KERNEL_MODE
+        self.K = self._ctrl[kn.C_K:kn.C_K + 3]
+        self.D = self._ctrl[kn.C_D:kn.C_D + 3]
+        self.x_d = self._ctrl[kn.C_X_D:kn.C_X_D + 3]
+        self.x_d[:] = P.X_EQUILIBRIUM
+        self.dx_d = self._ctrl[kn.C_DX_D:kn.C_DX_D + 3]
+        self.ddx_d = self._ctrl[kn.C_DDX_D:kn.C_DDX_D + 3]
+        self._res = np.zeros(kn.result_size(N_ACT))
+        r = self._res
+        self.out = ControlOutput(tau=r[0:N_ACT], tau_raw=r[N_ACT:2 * N_ACT], x=r[2 * N_ACT:2 * N_ACT + 3],
+                                 dx=r[2 * N_ACT + 3:2 * N_ACT + 6])
         self._err = np.zeros(3)
         self._derr = np.zeros(3)
         self._f = np.zeros(3)
         self._tau_full = np.zeros(model.nq)
-        self._tau_max = model.torque_limit_nm.copy()
+        self._tau_max = self._ctrl[kn.C_TAU_MAX:kn.C_TAU_MAX + N_ACT]
+        self._tau_max[:] = model.torque_limit_nm
         self._tau_min = -self._tau_max
         self.set_gains(k, d)
 
@@ -89,6 +128,28 @@ class TaskController:
         self._derr *= self.D
         self._f += self._derr
         return self._f
+
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
+        """One cycle: joint state (rad, rad/s, [q1..q4]) and torso acceleration q̈1 (rad/s²) → torques.
+
+        Never raises: a bad input gives tau = 0, ok False and `error` naming it.
+        """
+        fn = self._compiled
+        if fn is None:
+            return self.step_reference(q, dq, ddq1)
+        try:
+            status = fn(self._prm, q, dq, ddq1, self._res, self.out.saturated)
+        except Exception:  # not C-contiguous float64 vectors: the reference path converts or names it
+            return self.step_reference(q, dq, ddq1)
+        if status != kn.OK:
+            return self._fail(self.check_state(q, dq, ddq1) or "controller produced a non-finite torque")
+        out = self.out
+        out.ok = True
+        out.error = None
+        return out
+
+    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
+        raise NotImplementedError
 
     def _fail(self, reason: str) -> ControlOutput:
         out = self.out

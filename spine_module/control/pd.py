@@ -12,8 +12,8 @@ from spine_module.control.output import ControlOutput, TaskController
 
 
 class TaskPDController(TaskController):
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
-        """One cycle: joint state (rad, rad/s, [q1..q4]) → torques. ddq1 is accepted and unused."""
+    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
+        """The pinocchio path (reference and fallback). ddq1 is accepted and unused."""
         try:
             self.model.update_kinematics(self.data, q, dq)
             np.matmul(self.data.J.T, self._spring_damper(), out=self._tau_full)
