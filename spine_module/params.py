@@ -23,6 +23,11 @@ import numpy as np
 GRAVITY_M_S2 = 9.81
 CONTROL_RATE_HZ = 1000.0
 CONTROL_PERIOD_S = 1.0 / CONTROL_RATE_HZ
+HEARTBEAT_PERIOD_S = 0.010  # node -> robot and robot -> node heartbeats
+SPINE_COMMAND_PERIOD_S = 0.010  # torso computer -> node spine command (the scripts of the co-simulations)
+# Motor-side command timeout (the CyberGear's CAN timeout, off by default on the real motor): with no fresh
+# command for this long the motors apply zero torque instead of holding a stale one.
+MOTOR_COMMAND_TIMEOUT_S = 0.020
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial, save_trial
 from sparc_quad.sim.plant_effects import EFFECT_PARAMS, Effect, PlantEffects
 from spine_module import params as P
+from spine_module.messages.motor import MotorCommand
 
 SPINE_URDF = Path(__file__).resolve().parents[2] / "robots" / "sparc_spine" / "sparc_spine.urdf"
 
@@ -173,7 +174,8 @@ def simulate(robot: Robot, true_plant: PlantEffects, nominal_plant: PlantEffects
     for k in range(n_steps):
         qm = quant(true_plant.measured_q(q), lsb_q)
         dqm = quant(dq, lsb_dq)
-        tau = np.clip(ff[k] + kp * (q_d[k] - qm) + kd * (dq_d[k] - dqm), -limit, limit)
+        cmd = MotorCommand(tau_ff=ff[k], q_des=q_d[k], dq_des=dq_d[k], kp=kp, kd=kd)
+        tau = np.clip(cmd.torque(qm, dqm), -limit, limit)
         Q[k], DQ[k], TAU[k] = qm, dqm, tau
         tj = np.zeros(robot.nv)
         tj[robot.act_idx] = true_plant.applied_torque(tau) + noise[k]

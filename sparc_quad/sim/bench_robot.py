@@ -344,7 +344,7 @@ class BenchRobot:
         timed_out = self._cmd_clock is None or self._clock - self._cmd_clock > self.cfg.command_timeout_s
         if c is not None and c.enable and not self.latched and not timed_out:
             fb_q, fb_dq = q[1:], self.world.state().dq[1:]
-            tau = c.tau_ff + c.kp * (c.q_des - fb_q) + c.kd * (c.dq_des - fb_dq)
+            tau = c.torque(fb_q, fb_dq)
         f_ext = np.array([fx, 0.0, 0.0]) if fx != 0.0 else None
         self.world.step(tau, f_ext)
         lg = self.log

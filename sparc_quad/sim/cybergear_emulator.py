@@ -9,7 +9,7 @@ Behaviour modelled (CyberGear instruction manual, section 4):
 - replies: get id (0) and set id (7) -> device-id frame (type 0, target 0xFE); operation control (1),
   enable (3), stop (4), set zero (6), parameter write (18) -> feedback (type 2); read (17) -> read reply;
 - the parameter table of `protocol.PARAMS` (limits clamped as the firmware does);
-- output torque: operation control tau = t_ff + kp (p_des - p) + kd (v_des - v), current mode
+- output torque: operation control by `MotorCommand.torque` (the one motor law), current mode
   tau = kt * iq_ref, simple speed/position loops; clamped to limit_torque; zero unless RUN;
 - fault injection (`inject_fault`: feedback fault bits and a type-21 frame), a motor that stops answering
   (`set_silent`), malformed frames (`send_malformed`).
@@ -41,6 +41,7 @@ import can
 from spine_module.buses.cybergear import protocol as P
 from spine_module.buses.cybergear.config import KT_NM_PER_A
 from spine_module.buses.cybergear.driver import loggable
+from spine_module.messages.motor import MotorCommand
 
 log = logging.getLogger(__name__)
 
@@ -93,7 +94,7 @@ class EmulatedMotor:
     silent: bool = False
     zero_rad: float = 0.0  # physical position of the mechanical zero (type 6)
     temperature_c: float = 30.0
-    cmd: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)  # t, p, v, kp, kd
+    cmd: MotorCommand = field(default_factory=lambda: MotorCommand(0.0, 0.0, 0.0, 0.0, 0.0))  # scalars
     params: dict[str, float | int] = field(default_factory=lambda: {
         "run_mode": 0, "iq_ref": 0.0, "spd_ref": 0.0, "limit_torque": 12.0, "cur_kp": 0.125,
         "cur_ki": 0.0158, "cur_filt_gain": 0.1, "loc_ref": 0.0, "limit_spd": 2.0, "limit_cur": 23.0,
@@ -106,8 +107,7 @@ class EmulatedMotor:
             return 0.0
         run_mode = int(self.params["run_mode"])
         if run_mode == P.RunMode.OPERATION:
-            t, pd, vd, kp, kd = self.cmd
-            tau = t + kp * (pd - p) + kd * (vd - v)
+            tau = float(self.cmd.torque(p, v))
         elif run_mode == P.RunMode.CURRENT:
             tau = kt * float(self.params["iq_ref"])
         else:
@@ -232,7 +232,7 @@ class CyberGearEmulator:
         if isinstance(frame, P.GetId):
             self._tx(P.encode_device_id(m.can_id, m.uid))
         elif isinstance(frame, P.OperationControl):
-            m.cmd = (frame.torque, frame.position, frame.velocity, frame.kp, frame.kd)
+            m.cmd = MotorCommand(frame.torque, frame.position, frame.velocity, frame.kp, frame.kd)
             self._commanded(m)
         elif isinstance(frame, P.Enable):
             m.fault_bits |= m.stuck_fault_bits

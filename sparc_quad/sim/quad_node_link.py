@@ -127,7 +127,7 @@ class NodeSpine:
         c = self.last_cmd
         fresh = self._cmd_t is not None and t - self._cmd_t <= self.command_timeout
         if c is not None and c.enable and fresh:
-            self.tau[:] = c.tau_ff + c.kp * (c.q_des - q) + c.kd * (c.dq_des - dq)
+            self.tau[:] = c.torque(q, dq)
         else:
             self.tau[:] = 0.0
         np.clip(self.tau, -P.TORQUE_LIMIT_NM, P.TORQUE_LIMIT_NM, out=self.tau)

@@ -14,6 +14,7 @@ from spine_module.messages.codec import (
     encode_state,
     encode_torso,
 )
+from spine_module.messages.motor import MotorCommand, MotorFeedback
 from spine_module.messages.types import LATCHING, Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
 
 __all__ = [
@@ -23,6 +24,8 @@ __all__ = [
     "Heartbeat",
     "MessageError",
     "Mode",
+    "MotorCommand",
+    "MotorFeedback",
     "SpineCommand",
     "SpineState",
     "TorsoState",

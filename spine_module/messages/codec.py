@@ -15,7 +15,6 @@ from io import BytesIO
 import numpy as np
 
 from spine_module import params
-from spine_module.buses.base import MotorCommand, MotorFeedback
 from spine_module.messages import channels
 from spine_module.messages.lcmt.sparc import (
     heartbeat_t,
@@ -25,6 +24,7 @@ from spine_module.messages.lcmt.sparc import (
     spine_state_t,
     torso_state_t,
 )
+from spine_module.messages.motor import MotorCommand, MotorFeedback
 from spine_module.messages.types import Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
 
 LCM_TYPES = (torso_state_t, spine_command_t, spine_state_t, motor_command_t, motor_feedback_t, heartbeat_t)

@@ -1,7 +1,7 @@
 """The node's in-memory messages: dataclasses with numpy arrays, SI units, seconds for time.
 
 On the wire these are the LCM types in `lcm_types/` (microsecond `utime`); `codec` converts and validates.
-Motor command and feedback use the shared `spine_module.buses.base` dataclasses.
+Motor command and feedback are in `motor` (shared by the codec, the buses and the robot side).
 """
 
 from __future__ import annotations

@@ -39,7 +39,7 @@ _NOISY = Fault.TORQUE_CLAMPED | Fault.JOINT_LIMIT
 class NodeConfig:
     rate_hz: float = params.CONTROL_RATE_HZ
     safety: safety.SafetyConfig = field(default_factory=safety.SafetyConfig)
-    heartbeat_period_s: float = 0.010  # node -> robot heartbeat, on the node's clock
+    heartbeat_period_s: float = params.HEARTBEAT_PERIOD_S  # node -> robot heartbeat, node's clock
     state_every: int = 1  # publish spine state every N ticks
     name: str = "spine-node"
     jitter_window: int = 1000

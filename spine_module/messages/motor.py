@@ -1,0 +1,69 @@
+"""Motor command and feedback: what crosses between the spine node and its motors, whatever the bus.
+
+They live with the messages (not the buses) so that the codec, the buses, the robot side and the
+simulators share them without an arrow pointing back up. All quantities are on the joint (output) side of
+the gearbox, in the joint's sign convention.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+
+
+def _zeros(n: int) -> np.ndarray:
+    return np.zeros(n)
+
+
+class _Copyable:
+    """A copy that shares no array with the original: what a transport would hand over, at a fraction
+    of `copy.deepcopy`'s cost (the in-process bus copies twice per 1 kHz tick)."""
+
+    def copy(self):
+        return replace(self, **{f.name: v.copy() for f in fields(self)
+                                if isinstance(v := getattr(self, f.name), np.ndarray)})
+
+
+@dataclass
+class MotorCommand(_Copyable):
+    """Operation-control command per joint: tau = tau_ff + kp (q_des - q) + kd (dq_des - dq).
+
+    Units: tau_ff N*m, q_des rad, dq_des rad/s, kp N*m/rad, kd N*m*s/rad. `enable=False` asks the backend
+    to put the motors in their stopped (zero-torque) state.
+    """
+
+    tau_ff: np.ndarray
+    q_des: np.ndarray = field(default_factory=lambda: _zeros(3))
+    dq_des: np.ndarray = field(default_factory=lambda: _zeros(3))
+    kp: np.ndarray = field(default_factory=lambda: _zeros(3))
+    kd: np.ndarray = field(default_factory=lambda: _zeros(3))
+    enable: bool = True
+    stamp_s: float = 0.0
+    seq: int = 0
+
+    def torque(self, q: np.ndarray | float, dq: np.ndarray | float) -> np.ndarray:
+        """The motor law, the one implementation of it: output torque (N*m) at measured q (rad),
+        dq (rad/s). Clipping to a torque limit and disabled/timed-out handling are the caller's."""
+        return self.tau_ff + self.kp * (self.q_des - q) + self.kd * (self.dq_des - dq)
+
+    @classmethod
+    def zero(cls, n: int = 3, enable: bool = False) -> MotorCommand:
+        return cls(tau_ff=_zeros(n), q_des=_zeros(n), dq_des=_zeros(n), kp=_zeros(n), kd=_zeros(n),
+                   enable=enable)
+
+
+@dataclass
+class MotorFeedback(_Copyable):
+    """Measured joint state per motor. `stamp_s` is when it was measured, on the producer's clock (s)."""
+
+    q: np.ndarray  # rad
+    dq: np.ndarray  # rad/s
+    tau: np.ndarray  # estimated torque, N*m
+    temperature_c: np.ndarray = field(default_factory=lambda: _zeros(3))  # deg C
+    mode: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int32))  # 0 reset, 1 cal, 2 run
+    fault: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int32))  # per-motor fault bits
+    # Module load cells (hind, front spine link), N; NaN when the backend has none (e.g. motors-only CAN).
+    load_cell_n: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))
+    stamp_s: float = 0.0
+    seq: int = 0
