@@ -11,7 +11,7 @@ import importlib
 import logging
 import sys
 
-COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node", "motors", "gap", "bound")
+COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node", "motors", "gap", "bound", "study")
 
 
 def build_parser() -> argparse.ArgumentParser:

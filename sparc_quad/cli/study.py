@@ -1,0 +1,132 @@
+"""`sparc-quad study run|report`: spine-stiffness studies over a grid of bound trials."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
+    return v
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "study",
+        help="run and report spine-stiffness studies (grids of bound trials)",
+        description="Studies: a TOML spec ([study] gait, duration, seeds, speeds, slopes; [grid] "
+        "bound options with lists, spine = [impedance, passive, rigid]) expanded into "
+        "trials, each stored as one record; reruns execute only missing trials.",
+    )
+    ssub = p.add_subparsers(dest="study_command", metavar="ACTION", required=True)
+    r = ssub.add_parser(
+        "run",
+        help="execute the missing trials of a spec into DIR",
+        description="Execute every trial of SPEC whose record is missing in DIR/trials; write "
+        "DIR/trials.csv and DIR/summary.json. Exit 0 if all trials succeeded, 1 if any "
+        "failed (their errors are in the records), 2 on bad input, 130 on Ctrl-C.",
+    )
+    r.add_argument("spec", type=Path, metavar="SPEC.toml", help="study spec")
+    r.add_argument("--out", type=Path, required=True, metavar="DIR", help="study folder (created; resumable)")
+    r.add_argument(
+        "--workers", type=_positive_int, default=None, help="local worker processes (default: one per core)"
+    )
+    r.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on an existing Dask distributed cluster, e.g. tcp://host:8786 (needs the [study] extra)",
+    )
+    r.add_argument("--retry-failed", action="store_true", help="run again the trials recorded as failed")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--report", action="store_true", help="write the report when the run ends")
+    r.set_defaults(func=run)
+    rep = ssub.add_parser(
+        "report",
+        help="statistics and plots of a study folder",
+        description="Per speed x slope: heatmaps of CoT over k x d against the rigid spine "
+        "(bootstrap CIs over seeds and strides), CoT against k per d, fall rates. "
+        "Writes DIR/report/ (PNG, cells.csv, cells.json).",
+    )
+    rep.add_argument("dir", type=Path, metavar="DIR", help="a folder written by `study run`")
+    rep.add_argument("--bootstrap", type=_positive_int, default=2000, help="bootstrap resamples")
+    rep.set_defaults(func=report)
+
+
+def run(args: argparse.Namespace) -> int:
+    from sparc_quad.study.executors import ExecutorUnavailable
+    from sparc_quad.study.runner import run_study
+    from sparc_quad.study.spec import SpecError, load_spec
+
+    try:
+        spec = load_spec(args.spec)
+    except SpecError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.scheduler and args.workers:
+        print("error: --workers is for the local pool; a Dask cluster has its own workers", file=sys.stderr)
+        return 2
+    if args.scheduler:
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError:
+            print(
+                "error: --scheduler needs Dask distributed: pip install 'sparc-quad[study]'", file=sys.stderr
+            )
+            return 2
+    if args.out.exists() and not args.out.is_dir():
+        print(f"error: --out {args.out} exists and is not a folder", file=sys.stderr)
+        return 2
+    try:
+        s = run_study(
+            spec,
+            args.out,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            retry_failed=args.retry_failed,
+            progress=not args.no_progress,
+        )
+    except ExecutorUnavailable as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(
+            f"interrupted; finished trials are kept in {args.out}/trials (rerun to resume)", file=sys.stderr
+        )
+        return 130
+    print(
+        f"{s.trials} trials: executed {s.executed}, cached {s.cached}, failed {s.failed}; "
+        f"{args.out / 'trials.csv'}"
+    )
+    if args.report:
+        rc = _report(args.out, 2000)
+        if rc:
+            return rc
+    return 1 if s.failed else 0
+
+
+def _report(folder: Path, n_boot: int) -> int:
+    from sparc_quad.study.report import ReportError, write_report
+
+    try:
+        paths = write_report(folder, n_boot=n_boot)
+    except ReportError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for p in paths:
+        print(f"wrote {p}")
+    return 0
+
+
+def report(args: argparse.Namespace) -> int:
+    try:
+        return _report(args.dir, args.bootstrap)
+    except KeyboardInterrupt:
+        return 130

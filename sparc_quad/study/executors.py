@@ -1,0 +1,167 @@
+"""Where trials run: a local process pool (default) or an existing Dask distributed cluster.
+
+Both run the same picklable `execute(config, version, hash)`, which never raises for a failing trial: it
+returns a record with the error, so one bad cell cannot stop a study. Results are yielded as they finish.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import multiprocessing
+import os
+import time
+import traceback
+from collections.abc import Iterator
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+# one BLAS thread per worker: parallelism comes from the workers, not from threads fighting for cores
+BLAS_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+class ExecutorUnavailable(RuntimeError):
+    """The requested executor cannot be used here (missing extra, unreachable scheduler)."""
+
+
+def trial_function():
+    """The gait-family trial function if the package has it, else the run_bound stand-in."""
+    try:
+        mod = importlib.import_module("sparc_quad.study.trial")
+    except ModuleNotFoundError as exc:
+        if exc.name != "sparc_quad.study.trial":
+            raise
+        mod = importlib.import_module("sparc_quad.study.bound_adapter")
+    return mod.run_trial
+
+
+def execute(config: dict, version: str, trial_hash: str) -> dict:
+    """Run one trial and return its record (status ok | failed); never raises for the trial's errors."""
+    from sparc_quad.study.records import code_version
+
+    t0 = time.perf_counter()
+    rec: dict = {
+        "hash": trial_hash,
+        "config": config,
+        "code_version": version,
+        "host": os.uname().nodename,
+        "pid": os.getpid(),
+    }
+    local = code_version()
+    try:
+        if local != version:
+            raise RuntimeError(f"worker code version {local} differs from the study's {version}")
+        fn = trial_function()
+        rec["trial_function"] = f"{fn.__module__}.{fn.__qualname__}"
+        metrics = fn(dict(config))
+        if not isinstance(metrics, dict):
+            raise TypeError(f"trial function returned {type(metrics).__name__}, not a dict")
+        rec.update(status="ok", error=None, metrics=metrics)
+    except Exception as exc:
+        rec.update(
+            status="failed",
+            error=f"{type(exc).__name__}: {exc}",
+            traceback=traceback.format_exc(),
+            metrics=None,
+        )
+    rec["wall_s"] = time.perf_counter() - t0
+    return rec
+
+
+def _init_worker() -> None:
+    os.environ.update(BLAS_ENV)
+
+
+@contextlib.contextmanager
+def _blas_env():
+    """Children inherit the environment when they start, before they import numpy."""
+    old = {k: os.environ.get(k) for k in BLAS_ENV}
+    os.environ.update(BLAS_ENV)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def default_workers() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+def run_local(jobs: list[tuple[dict, str, str]], workers: int) -> Iterator[dict]:
+    """Run `jobs` (config, version, hash) on `workers` spawned processes; yield records as they finish.
+    Closing the generator (Ctrl-C) cancels what has not started."""
+    ctx = multiprocessing.get_context("spawn")
+    with _blas_env():
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+    try:
+        pending = {pool.submit(execute, *job): job for job in jobs}
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                cfg, version, h = pending.pop(fut)
+                try:
+                    yield fut.result()
+                except Exception as exc:  # the worker process died (e.g. killed, out of memory)
+                    yield {
+                        "hash": h,
+                        "config": cfg,
+                        "code_version": version,
+                        "status": "failed",
+                        "error": f"worker lost: {type(exc).__name__}: {exc}",
+                        "metrics": None,
+                        "wall_s": None,
+                    }
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def run_inline(jobs: list[tuple[dict, str, str]]) -> Iterator[dict]:
+    """Run `jobs` one after another in this process (debugging, tests)."""
+    for job in jobs:
+        yield execute(*job)
+
+
+def run_dask(
+    jobs: list[tuple[dict, str, str]], address: str, connect_timeout_s: float = 30.0
+) -> Iterator[dict]:
+    """Submit `jobs` to the Dask scheduler at `address`; yield records as they finish."""
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError:
+        raise ExecutorUnavailable(
+            "--scheduler needs Dask distributed: pip install 'sparc-quad[study]'"
+        ) from None
+    try:
+        client = Client(address, timeout=connect_timeout_s)
+    except (OSError, TimeoutError) as exc:
+        raise ExecutorUnavailable(f"--scheduler {address}: cannot connect ({exc})") from None
+    try:
+        futures = {}
+        for cfg, version, h in jobs:
+            fut = client.submit(execute, cfg, version, h, key=f"sparc-trial-{h}", pure=False)
+            futures[fut] = (cfg, version, h)
+        for fut in as_completed(list(futures)):
+            cfg, version, h = futures.pop(fut)
+            try:
+                yield fut.result()
+            except Exception as exc:  # the worker died under the trial (KilledWorker) or the graph failed
+                yield {
+                    "hash": h,
+                    "config": cfg,
+                    "code_version": version,
+                    "status": "failed",
+                    "error": f"dask: {type(exc).__name__}: {exc}",
+                    "metrics": None,
+                    "wall_s": None,
+                }
+            fut.release()
+    finally:
+        for fut in futures:
+            fut.cancel()
+        client.close()

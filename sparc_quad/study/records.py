@@ -1,0 +1,231 @@
+"""Trial records on disk: one JSON file per trial, named by a hash of its config and the code version.
+
+A record is written atomically (temporary file in the same folder, then os.replace), so a killed study
+leaves whole records or none, and a rerun executes only the trials whose record is missing. The code
+version hashes the source files a trial's result can depend on (the simulation, the controllers, the
+robots), not the study's own report/CLI code, so improving a plot does not invalidate a finished study.
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import hashlib
+import json
+import math
+import os
+import subprocess
+import tempfile
+from collections.abc import Iterable
+from importlib import metadata
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+# package folders whose sources a trial result depends on, and the ones under them that it does not
+CODE_DIRS = ("sparc_quad", "spine_module", "robots")
+CODE_SUFFIXES = (".py", ".urdf", ".toml", ".json", ".yaml", ".srdf", ".stl", ".obj")
+NOT_TRIAL_CODE = (
+    "sparc_quad/cli/",
+    "sparc_quad/gap/",
+    "sparc_quad/bench/",
+    "sparc_quad/study/spec.py",
+    "sparc_quad/study/records.py",
+    "sparc_quad/study/executors.py",
+    "sparc_quad/study/stats.py",
+    "sparc_quad/study/report.py",
+    "sparc_quad/study/runner.py",
+)
+RECORD_VERSION = 1
+
+
+def package_version() -> str:
+    try:
+        return metadata.version("sparc-quad")
+    except metadata.PackageNotFoundError:
+        return "0+unknown"
+
+
+def git_describe(root: Path = ROOT) -> str | None:
+    """`git describe --always --dirty` of the checkout, for the record (not part of the hash)."""
+    try:
+        r = subprocess.run(
+            ["git", "describe", "--always", "--dirty"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=False,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return r.stdout.strip() or None
+
+
+def trial_source_files(root: Path = ROOT) -> list[Path]:
+    files = []
+    for d in CODE_DIRS:
+        base = root / d
+        if not base.is_dir():
+            continue
+        for p in base.rglob("*"):
+            rel = p.relative_to(root).as_posix()
+            if (
+                p.is_file()
+                and p.suffix in CODE_SUFFIXES
+                and "__pycache__" not in rel
+                and not rel.startswith(NOT_TRIAL_CODE)
+                and ".egg-info" not in rel
+            ):
+                files.append(p)
+    return sorted(files)
+
+
+@functools.cache
+def code_version(root: Path = ROOT) -> str:
+    """package version + a hash of the trial's source files (content and path)."""
+    h = hashlib.sha256()
+    for p in trial_source_files(root):
+        h.update(p.relative_to(root).as_posix().encode())
+        h.update(b"\0")
+        h.update(p.read_bytes())
+        h.update(b"\0")
+    return f"{package_version()}+src.{h.hexdigest()[:12]}"
+
+
+def canonical(config: dict) -> str:
+    """The config as sorted-key JSON: equal configs give equal text whatever their key order."""
+    return json.dumps(config, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def trial_hash(config: dict, version: str) -> str:
+    return hashlib.sha256(f"{version}\n{canonical(config)}".encode()).hexdigest()[:20]
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write `text` to `path` whole or not at all (tmp file in the same folder + os.replace)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def jsonable(x):
+    """Records are strict JSON: NaN/inf become null, numpy scalars plain numbers."""
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [jsonable(v) for v in x]
+    if hasattr(x, "tolist"):  # numpy scalars and arrays
+        return jsonable(x.tolist())
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def write_record(trials_dir: Path, record: dict) -> Path:
+    path = Path(trials_dir) / f"{record['hash']}.json"
+    atomic_write_text(path, json.dumps(jsonable(record), indent=1, allow_nan=False) + "\n")
+    return path
+
+
+def read_record(path: Path) -> dict | None:
+    """A record, or None if the file is not a whole record (then the trial is run again)."""
+    try:
+        rec = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(rec, dict) or "hash" not in rec or "config" not in rec or "status" not in rec:
+        return None
+    return rec
+
+
+def load_records(trials_dir: Path) -> list[dict]:
+    d = Path(trials_dir)
+    if not d.is_dir():
+        return []
+    out = []
+    for p in sorted(d.glob("*.json")):
+        rec = read_record(p)
+        if rec is not None:
+            out.append(rec)
+    return out
+
+
+def flatten(d: dict, prefix: str = "") -> dict:
+    """Nested metrics as flat columns: {"a": {"b": 1}} -> {"a.b": 1}; lists become JSON text."""
+    out: dict = {}
+    for k, v in d.items():
+        name = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, f"{name}."))
+        elif isinstance(v, list | tuple):
+            out[name] = json.dumps(jsonable(v))
+        else:
+            out[name] = v
+    return out
+
+
+CONFIG_FIRST = ("gait", "spine", "speed", "slope", "seed", "duration")
+
+
+def records_table(records: Iterable[dict]) -> tuple[list[str], list[dict]]:
+    """(columns, rows): config columns first, then status/error, then every metric (per-stride lists
+    stay in the JSON records)."""
+    rows = []
+    cfg_keys: set[str] = set()
+    metric_keys: set[str] = set()
+    for rec in records:
+        cfg = rec["config"]
+        metrics = {k: v for k, v in (rec.get("metrics") or {}).items() if k != "strides"}
+        flat = flatten(metrics)
+        cfg_keys.update(cfg)
+        metric_keys.update(flat)
+        row = {
+            **cfg,
+            "hash": rec["hash"],
+            "status": rec["status"],
+            "error": rec.get("error") or "",
+            "wall_s": rec.get("wall_s"),
+            "n_strides": len((rec.get("metrics") or {}).get("strides") or []),
+        }
+        row.update({f"m.{k}": v for k, v in flat.items()})
+        if "fell" in flat:
+            row["fell"] = flat["fell"]
+        rows.append(row)
+    cfg_cols = [k for k in CONFIG_FIRST if k in cfg_keys] + sorted(cfg_keys - set(CONFIG_FIRST))
+    cols = [*cfg_cols, "fell", "status", "error", "hash", "wall_s", "n_strides"]
+    cols += [f"m.{k}" for k in sorted(metric_keys) if k != "fell"]
+    rows.sort(key=lambda r: tuple(str(r.get(c, "")) for c in cfg_cols))
+    return cols, rows
+
+
+def write_csv(path: Path, records: Iterable[dict]) -> Path:
+    cols, rows = records_table(records)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=cols, extrasaction="ignore")
+            w.writeheader()
+            for r in rows:
+                w.writerow({c: ("" if r.get(c) is None else r.get(c)) for c in cols})
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path

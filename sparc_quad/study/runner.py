@@ -1,0 +1,150 @@
+"""Run a study: expand the spec, skip trials whose record exists, execute the rest, write the tables.
+
+DIR/trials/<hash>.json  one record per trial (config, code version, status, error, metrics, strides)
+DIR/trials.csv          one row per trial of this spec (config columns, fell, every scalar metric)
+DIR/summary.json        counts (trials, executed, cached, failed) and the hashes of this spec's trials
+DIR/spec.toml           the spec that was run
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sparc_quad.study import executors
+from sparc_quad.study.records import (
+    atomic_write_text,
+    code_version,
+    git_describe,
+    read_record,
+    trial_hash,
+    write_csv,
+    write_record,
+)
+from sparc_quad.study.spec import Spec
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class RunSummary:
+    trials: int = 0
+    executed: int = 0
+    cached: int = 0
+    failed: int = 0  # failed among this spec's trials (executed now or cached from before)
+    failed_now: int = 0
+    interrupted: bool = False
+    wall_s: float = 0.0
+    hashes: list[str] = field(default_factory=list)
+
+
+def plan(spec: Spec, version: str | None = None) -> list[tuple[dict, str]]:
+    version = version or code_version()
+    return [(cfg, trial_hash(cfg, version)) for cfg in spec.trials()]
+
+
+def run_study(
+    spec: Spec,
+    out: Path,
+    workers: int | None = None,  # None: one per core; 0: in this process, one after another
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    progress: bool = True,
+) -> RunSummary:
+    """Execute the missing trials of `spec` into `out`; always leaves trials.csv and summary.json
+    consistent with the records on disk (also after Ctrl-C, which re-raises KeyboardInterrupt)."""
+    out = Path(out)
+    trials_dir = out / "trials"
+    trials_dir.mkdir(parents=True, exist_ok=True)
+    version = code_version()
+    planned = plan(spec, version)
+    summary = RunSummary(trials=len(planned), hashes=[h for _, h in planned])
+    if spec.source:
+        try:
+            atomic_write_text(out / "spec.toml", Path(spec.source).read_text())
+        except OSError:
+            pass
+    records: dict[str, dict] = {}
+    todo: list[tuple[dict, str, str]] = []
+    for cfg, h in planned:
+        rec = read_record(trials_dir / f"{h}.json")
+        if rec is not None and (rec["status"] == "ok" or not retry_failed):
+            records[h] = rec
+            summary.cached += 1
+        else:
+            todo.append((cfg, version, h))
+    t0 = time.perf_counter()
+    if not todo:
+        stream = iter(())
+    elif scheduler:
+        stream = executors.run_dask(todo, scheduler)
+    elif workers == 0:
+        stream = executors.run_inline(todo)
+    else:
+        n = workers or executors.default_workers()
+        stream = executors.run_local(todo, max(1, min(n, len(todo))))
+    bar = None
+    if progress and todo:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(todo), unit="trial", desc=spec.name, mininterval=2.0, smoothing=0.1)
+    try:
+        for rec in stream:
+            write_record(trials_dir, rec)
+            records[rec["hash"]] = rec
+            summary.executed += 1
+            if rec["status"] != "ok":
+                summary.failed_now += 1
+                log.warning("trial %s failed: %s", rec["hash"], rec.get("error"))
+            if bar is not None:
+                bar.set_postfix(failed=summary.failed_now, refresh=False)
+                bar.update(1)
+    except KeyboardInterrupt:
+        summary.interrupted = True
+        raise
+    finally:
+        close = getattr(stream, "close", None)
+        if close is not None:
+            close()
+        if bar is not None:
+            bar.close()
+        summary.wall_s = time.perf_counter() - t0
+        summary.failed = sum(1 for r in records.values() if r["status"] != "ok")
+        finish(
+            out,
+            spec,
+            version,
+            summary,
+            [records[h] for _, h in planned if h in records],
+            workers=None if scheduler else (executors.default_workers() if workers is None else workers),
+            scheduler=scheduler,
+        )
+    return summary
+
+
+def finish(
+    out: Path, spec: Spec, version: str, s: RunSummary, records: list[dict], workers, scheduler
+) -> None:
+    write_csv(out / "trials.csv", records)
+    doc = {
+        "name": spec.name,
+        "spec": spec.source,
+        "code_version": version,
+        "git_describe": git_describe(),
+        "trials": s.trials,
+        "done": len(records),
+        "executed": s.executed,
+        "cached": s.cached,
+        "failed": s.failed,
+        "failed_this_run": s.failed_now,
+        "interrupted": s.interrupted,
+        "wall_s": round(s.wall_s, 3),
+        "trials_per_minute": round(60.0 * s.executed / s.wall_s, 3) if s.executed and s.wall_s > 0 else None,
+        "workers": workers,
+        "scheduler": scheduler,
+        "hashes": s.hashes,
+    }
+    atomic_write_text(out / "summary.json", json.dumps(doc, indent=1) + "\n")
