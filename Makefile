@@ -10,7 +10,7 @@ OUT ?= out/demo
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,study]'
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -29,7 +29,7 @@ lint: install
 	$(BIN)/ruff check .
 
 # every performance script prints ratios measured in the same run and writes out/bench/<name>.json
-BENCHES := control_step lcm_loop can_loop gap cosim
+BENCHES := control_step lcm_loop can_loop gap cosim study_scaling
 bench: install
 	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json || exit 1; done
 
