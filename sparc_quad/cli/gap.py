@@ -2,6 +2,7 @@
 
     sparc-quad gap TRIAL.csv [TRIAL.csv ...] --out DIR [--plant NOMINAL.json] [--window 0.2]
     sparc-quad gap synth --effect NAME[:joint=q3,param=value,...] [--effect ...] --out DIR [--seed N]
+    sparc-quad gap synth-arm --out DIR [--seed N] [--joint-side] [--uncoupled] [--no-dq]
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     f"Effects: {', '.join(EFFECT_NAMES)}.")
     p.add_argument("trials", nargs="+", metavar="TRIAL",
                    help="trial CSVs (sidecar JSON with the same stem) or lcm-logger files; "
-                        "or the word 'synth' to make trials")
+                        "or the word 'synth' (spine) or 'synth-arm' (6-DoF arm) to make trials")
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--plant", type=Path, default=None,
                    help="nominal plant-effects file (default: the sidecar's 'plant' key, else none)")
@@ -34,10 +35,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="hidden effect (repeatable), e.g. coulomb_friction:joint=q3,tau_c_nm=0.15")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--trials-n", type=int, default=3, help="number of trials (default 3)")
-    g.add_argument("--periods", type=int, default=4, help="excitation periods per trial (default 4)")
+    g.add_argument("--periods", type=int, default=None,
+                   help="excitation periods per trial (default 4; synth-arm 2)")
     g.add_argument("--period", type=float, default=1.5, help="excitation period, s (default 1.5)")
     g.add_argument("--unmodelled", choices=["cogging"], default=None,
                    help="also add an effect outside the library")
+    a = p.add_argument_group("synth-arm (UR5 with massless flange, friction + rotor inertia on every motor, "
+                             "link inertial errors, coupled wrist, measured currents, 5 kHz)")
+    a.add_argument("--joint-side", action="store_true",
+                   help="write joint-side columns in N*m (default: motor side as a real arm logs it)")
+    a.add_argument("--uncoupled", action="store_true", help="no wrist coupling (motor 6 turns q6 only)")
+    a.add_argument("--no-dq", action="store_true", help="leave out the velocity columns")
     p.set_defaults(func=run)
 
 
@@ -46,12 +54,14 @@ def run(args: argparse.Namespace) -> int:
         if args.trials == ["synth"]:
             from sparc_quad.gap.synth import synth
 
-            res = synth(args.out, args.effect, seed=args.seed, n_trials=args.trials_n, periods=args.periods,
-                        period_s=args.period, unmodelled=args.unmodelled)
+            res = synth(args.out, args.effect, seed=args.seed, n_trials=args.trials_n,
+                        periods=args.periods or 4, period_s=args.period, unmodelled=args.unmodelled)
             for pth in res["trials"]:
                 print(pth)
             print(f"hidden effects: {json.dumps([e.to_dict() for e in res['hidden']])}")
             return 0
+        if args.trials == ["synth-arm"]:
+            return _synth_arm(args)
         from sparc_quad.gap.workflow import run as run_gap
 
         rep = run_gap(args.trials, args.out, nominal_plant=args.plant, window_s=args.window,
@@ -65,4 +75,17 @@ def run(args: argparse.Namespace) -> int:
     names = ", ".join(f"{e['name']}@{e['joint']}" for e in rep["effects"]) or "none"
     print(f"verdict: {rep['verdict']}; effects: {names}; ambiguous: {len(rep['ambiguous'])}")
     print(f"report: {args.out / 'report.json'}  plant: {args.out / 'plant.json'}")
+    return 0
+
+
+def _synth_arm(args: argparse.Namespace) -> int:
+    from sparc_quad.gap.synth_arm import ArmCase, synth_arm
+
+    res = synth_arm(args.out, seed=args.seed, n_trials=args.trials_n, periods=args.periods or 2,
+                    period_s=args.period, case=ArmCase(coupled_wrist=not args.uncoupled),
+                    motor_side=not args.joint_side, with_dq=not args.no_dq)
+    for pth in res["trials"]:
+        print(pth)
+    print(f"truth: {args.out / 'truth.json'} ({len(res['truth']['hidden'])} hidden effects; "
+          "the last trial is the held-out one)")
     return 0
