@@ -164,6 +164,9 @@ class SafetyParams:
     command_deadline_s: float = 0.200
     heartbeat_deadline_s: float = 0.100
     soft_start_s: float = 0.5
+    # a feedback gap (FEEDBACK_STALE: zero torque, motors left enabled) no longer than this resumes the
+    # running ramp (full gain if it had finished); a longer one, or any stop, soft-starts again
+    stale_resume_s: float = 0.200
     joint_limit_damping_nm_s_rad: float = 0.5
     damping_mode_nm_s_rad: float = 0.3  # joint damping in the damping (safe) mode
 

@@ -45,6 +45,7 @@ class SafetyConfig:
     command_deadline_s: float = params.SAFETY.command_deadline_s
     heartbeat_deadline_s: float = params.SAFETY.heartbeat_deadline_s
     soft_start_s: float = params.SAFETY.soft_start_s
+    stale_resume_s: float = params.SAFETY.stale_resume_s
     soft_start_target: bool = True  # during the soft start the target also moves in from the current pose
     joint_limit_damping: float = params.SAFETY.joint_limit_damping_nm_s_rad
     damping_mode: float = params.SAFETY.damping_mode_nm_s_rad
@@ -73,6 +74,7 @@ class SafetyState:
     heartbeat_seen: bool = False
     mode: Mode = Mode.DISABLED  # mode that ran last tick
     ramp_t0: float | None = None  # when the running ramped mode started
+    stale_since: float | None = None  # start of the current feedback-stale spell that paused a ramped mode
     reset_count: int = 0  # resets accepted so far (sent to the robot side in the heartbeat)
 
 
@@ -143,9 +145,20 @@ def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, res
         mode = Mode.DISABLED if requested == Mode.ESTOP else requested
         enable = mode != Mode.DISABLED
 
-    ramp_t0 = state.ramp_t0
-    if mode in RAMPED_MODES:
-        if state.mode not in RAMPED_MODES or ramp_t0 is None:
+    ramp_t0, stale_since = state.ramp_t0, None
+    # a feedback-stale spell inside a ramped mode pauses it: zero torque, motors still enabled, the ramp
+    # kept, so a short gap resumes where it was (full gain once the ramp is done). Only a real restart (a
+    # stop, another mode, or a gap longer than stale_resume_s) soft-starts again.
+    paused = (mode == Mode.DISABLED and enable and active & Fault.FEEDBACK_STALE
+              and (state.mode in RAMPED_MODES or state.stale_since is not None) and ramp_t0 is not None)
+    if paused:
+        stale_since = now if state.stale_since is None else state.stale_since
+        if now - stale_since > cfg.stale_resume_s:
+            ramp_t0, stale_since = None, None
+        scale = 0.0
+    elif mode in RAMPED_MODES:
+        resumed = state.stale_since is not None and ramp_t0 is not None
+        if not resumed and (state.mode not in RAMPED_MODES or ramp_t0 is None):
             ramp_t0 = now
         scale = 1.0 if cfg.soft_start_s <= 0 else min(1.0, max(0.0, (now - ramp_t0) / cfg.soft_start_s))
     else:
@@ -153,7 +166,7 @@ def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, res
         scale = 1.0 if mode in TORQUE_MODES else 0.0
 
     new = replace(state, latched=latched, heartbeat_seen=heartbeat_seen, mode=mode, ramp_t0=ramp_t0,
-                  reset_count=reset_count)
+                  stale_since=stale_since, reset_count=reset_count)
     return new, Verdict(mode=mode, faults=latched | active, gain_scale=scale, default_gains=default_gains,
                         enable=enable)
 

@@ -47,7 +47,9 @@ def test_handshake_and_pure_torque_operation_control():
             mb.start()
             for i in (1, 2, 3):
                 kinds = [type(f) for f in emu.frames_of(P.Frame, i)]
-                assert kinds[:5] == [P.GetId, P.Stop, P.ParamWrite, P.ParamWrite, P.Enable]
+                assert kinds[:7] == [P.GetId, P.Stop, P.ParamWrite, P.ParamWrite, P.ParamWrite, P.ParamRead,
+                                     P.Enable]  # run_mode, limit_torque, CAN_TIMEOUT (+ its read-back)
+                assert emu.motors[i].params["CAN_TIMEOUT"] == round(0.05 * P.CAN_TIMEOUT_TICKS_PER_S)
                 assert emu.frames_of(P.Stop, i)[0].clear_fault
                 assert emu.motors[i].mode == P.MotorMode.RUN and emu.motors[i].params["run_mode"] == 0
             fb = mb.receive(1.0)
@@ -60,7 +62,7 @@ def test_handshake_and_pure_torque_operation_control():
             assert fb.tau == pytest.approx([1.0, -2.0, 3.0], abs=1e-3)
             assert fb.dq[2] > 0 > fb.dq[1]  # the free plant accelerated with the torques' signs
         assert all(emu.motors[i].mode == P.MotorMode.RESET for i in (1, 2, 3))  # stopped on exit
-        assert all(len(sniffer.of_type(P.CommType.STOP, i)) >= 2 for i in (1, 2, 3))
+        assert wait_for(lambda: all(len(sniffer.of_type(P.CommType.STOP, i)) >= 2 for i in (1, 2, 3)))
 
 
 def test_direction_offset_and_gains_reach_the_motor():
@@ -142,7 +144,7 @@ def test_stats_and_emulated_speed_and_position_modes():
     with virtual_rig() as (channel, emu, _sn), _bus(channel) as mb:
         mb.start()
         st = mb.stats()
-        assert st["tx_frames"] == 15 and st["rx_frames"] >= 15  # 5 frames per motor in the handshake
+        assert st["tx_frames"] == 21 and st["rx_frames"] >= 21  # 7 frames per motor in the handshake
     m = emu.motors[1]
     m.mode = P.MotorMode.RUN
     m.params.update(run_mode=P.RunMode.SPEED, spd_ref=2.0, spd_kp=1.0, limit_cur=5.0)

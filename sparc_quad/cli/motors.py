@@ -12,12 +12,13 @@ of commands instead of in real time.
 from __future__ import annotations
 
 import argparse
+import json
 import signal
 import sys
 import threading
 
 from spine_module.buses.cybergear import protocol as P
-from spine_module.buses.cybergear.config import DEFAULT_CONFIG_PATH, load_config
+from spine_module.buses.cybergear.config import DEFAULT_CONFIG_PATH, ConfigError, load_config
 from spine_module.buses.cybergear.driver import open_bus
 
 ACTIONS = ("scan", "status", "enable", "disable", "zero", "set-id", "emulate")
@@ -56,12 +57,20 @@ def _ids(args: argparse.Namespace, cfg) -> list[int]:
 
 
 def run(args: argparse.Namespace) -> int:
-    cfg = load_config(args.motor_config)
+    try:
+        cfg = load_config(args.motor_config)
+    except ConfigError as exc:
+        print(f"motors: {exc}", file=sys.stderr)
+        return 2
     host = cfg.host_id if args.host_id is None else args.host_id
     ids = _ids(args, cfg)
     if args.action == "emulate":
         return _emulate(args, ids, host, cfg)
-    if args.action in ("enable", "zero", "set-id") and not args.yes and sys.stdin.isatty():
+    if args.action in ("enable", "zero", "set-id") and not args.yes:
+        if not sys.stdin.isatty():  # a pipe or a script cannot answer the question: refuse, act on --yes only
+            print(f"motors {args.action}: stdin is not a terminal, so nobody can confirm; pass --yes to "
+                  f"{args.action} motor(s) {ids} without asking", file=sys.stderr)
+            return 2
         answer = input(f"{args.action} motor(s) {ids} on {args.interface}:{args.channel}? [y/N] ")
         if answer.strip().lower() not in ("y", "yes"):
             return 1
@@ -138,8 +147,10 @@ def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg) -> int:
         emu.keep_log = False
         print(f"emulating CyberGear motor(s) {ids} on {args.interface}:{args.channel} "
               f"({args.plant} plant{', lockstep' if args.lockstep else ''}); Ctrl-C to stop", flush=True)
-        if args.lockstep:
-            stop.wait(args.duration)
+        if args.lockstep:  # the plant steps on commands; the motors' CAN timeout still runs on the clock
+            t_end = None if args.duration is None else emu.clock() + args.duration
+            while not stop.wait(0.001) and (t_end is None or emu.clock() < t_end):
+                emu.check_can_timeouts()
         else:
             timer = threading.Timer(args.duration, stop.set) if args.duration else None
             if timer:
@@ -150,6 +161,11 @@ def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg) -> int:
         emu.shutdown()
         print(f"emulator: {len(emu.rejected)} frames rejected, {len(emu.refused)} commands refused, "
               f"{emu.sent} frames sent, {emu.steps} plant steps", flush=True)
+        # the CAN-timeout trips in the emulator's clock, for tests and people: one JSON line
+        print(json.dumps({"can_timeout_trips": [
+            {"motor": i, "can_timeout_s": emu.motors[i].can_timeout_s() if i in emu.motors else None,
+             "last_frame_s": t0, "tripped_s": t1, "last_torque_s": emu.motors[i].last_torque_s}
+            for i, t0, t1 in emu.timeout_trips]}), flush=True)
     finally:
         bus.shutdown()
         if world is not None:

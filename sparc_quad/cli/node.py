@@ -207,6 +207,8 @@ def echo_line(channel: str, data: bytes) -> dict:
         return {"channel": channel, **_jsonable(decode(channel, data))}
     except MessageError as exc:
         return {"channel": channel, "rejected": str(exc)}
+    except Exception as exc:  # a decoder bug must not end the echo: report the packet and go on
+        return {"channel": channel, "rejected": f"{type(exc).__name__} while decoding: {exc}"}
 
 
 def run_spine_echo(args: argparse.Namespace) -> int:

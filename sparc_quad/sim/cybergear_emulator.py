@@ -11,6 +11,10 @@ Behaviour modelled (CyberGear instruction manual, section 4):
 - the parameter table of `protocol.PARAMS` (limits clamped as the firmware does);
 - output torque: operation control by `MotorCommand.torque` (the one motor law), current mode
   tau = kt * iq_ref, simple speed/position loops; clamped to limit_torque; zero unless RUN;
+- CAN timeout (parameter CAN_TIMEOUT, 0x200C, 1/20000 s per count, 0 = off; see protocol.py for the
+  source and what is assumed): a RUN motor that has received no frame addressed to it for that long
+  drops to RESET (zero torque), checked on the emulator's own clock before every plant step and by
+  `check_can_timeouts()`; each trip is recorded in `timeout_trips` (motor, last frame s, trip s);
 - fault injection (`inject_fault`: feedback fault bits and a type-21 frame), a motor that stops answering
   (`set_silent`), malformed frames (`send_malformed`).
 
@@ -98,8 +102,13 @@ class EmulatedMotor:
     params: dict[str, float | int] = field(default_factory=lambda: {
         "run_mode": 0, "iq_ref": 0.0, "spd_ref": 0.0, "limit_torque": 12.0, "cur_kp": 0.125,
         "cur_ki": 0.0158, "cur_filt_gain": 0.1, "loc_ref": 0.0, "limit_spd": 2.0, "limit_cur": 23.0,
-        "rotation": 0, "loc_kp": 30.0, "spd_kp": 1.0, "spd_ki": 0.002, "VBUS": 24.0})
+        "rotation": 0, "loc_kp": 30.0, "spd_kp": 1.0, "spd_ki": 0.002, "VBUS": 24.0, "CAN_TIMEOUT": 0})
     last_torque: float = 0.0
+    last_rx_s: float | None = None  # emulator clock of the last frame addressed to this motor
+    last_torque_s: float | None = None  # emulator clock of the last plant step with non-zero torque
+
+    def can_timeout_s(self) -> float:
+        return int(self.params.get("CAN_TIMEOUT", 0)) / P.CAN_TIMEOUT_TICKS_PER_S
 
     def torque(self, p: float, v: float, kt: float = KT_NM_PER_A) -> float:
         """Output torque for output-side position p (after the zero offset) and velocity v."""
@@ -130,7 +139,8 @@ class CyberGearEmulator:
     def __init__(self, bus: can.BusABC, ids: Iterable[int] = (1, 2, 3), plant: Plant | None = None, *,
                  host_id: int = P.DEFAULT_HOST_ID, ranges: P.Ranges = P.DEFAULT_RANGES,
                  lockstep: bool = False, dt: float = 0.001, kt_nm_per_a: float = KT_NM_PER_A,
-                 start: bool = True, log: can.Listener | None = None) -> None:
+                 start: bool = True, log: can.Listener | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         ids = list(ids)
         self.bus = bus
         self.motors: dict[int, EmulatedMotor] = {
@@ -143,6 +153,8 @@ class CyberGearEmulator:
         self.dt = dt
         self.kt = kt_nm_per_a
         self.lock = threading.RLock()
+        self.clock = clock  # the emulator's own clock (CAN timeout, timeout_trips), s
+        self.timeout_trips: list[tuple[int, float, float]] = []  # (motor id, last frame s, tripped s)
         self.received: list[P.Frame] = []  # every decoded frame addressed to an emulated motor
         self.rejected: list[str] = []  # reasons for frames addressed to us that the firmware would drop
         self.refused: list[str] = []  # commands a real motor would refuse (mode switch while running)
@@ -167,9 +179,28 @@ class CyberGearEmulator:
             out[self._plant_id[m.can_id]] = m.last_torque
         return out
 
+    def check_can_timeouts(self, now: float | None = None) -> None:
+        """Drop every RUN motor whose CAN timeout has passed without a frame to RESET (zero torque)."""
+        with self.lock:
+            now = self.clock() if now is None else now
+            for m in self.motors.values():
+                limit = m.can_timeout_s()
+                if (limit > 0 and m.mode == P.MotorMode.RUN and m.last_rx_s is not None
+                        and now - m.last_rx_s >= limit):
+                    m.mode = P.MotorMode.RESET
+                    self.timeout_trips.append((m.can_id, m.last_rx_s, now))
+                    log.warning("motor %d: no frame for %.1f ms: CAN timeout, stopped", m.can_id,
+                                (now - m.last_rx_s) * 1e3)
+
     def step(self, dt: float | None = None) -> None:
         with self.lock:
-            self.plant.step(self.torques(), self.dt if dt is None else dt)
+            now = self.clock()
+            self.check_can_timeouts(now)
+            torques = self.torques()
+            for m in self.motors.values():
+                if m.last_torque != 0.0:
+                    m.last_torque_s = now
+            self.plant.step(torques, self.dt if dt is None else dt)
             self.steps += 1
 
     def run(self, stop: threading.Event, realtime: bool = True) -> None:
@@ -225,6 +256,7 @@ class CyberGearEmulator:
             if comm not in (P.CommType.FEEDBACK, P.CommType.FAULT):  # echoes of motor frames: ignore
                 self.rejected.append(e.reason)
             return
+        m.last_rx_s = self.clock()
         if self.keep_log:
             self.received.append(frame)
         if not isinstance(frame, P.OperationControl) and frame.host_id != target:

@@ -188,13 +188,21 @@ def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState
                       quat=np.array(m.quat) / norm, omega=np.array(m.omega), stamp_s=_s(m.utime), seq=m.seq)
 
 
+_ALL_FAULTS = int(sum(f.value for f in Fault if f.value and (f.value & (f.value - 1)) == 0))
+
+
+def _mode(channel: str, name: str, value: int) -> Mode:
+    """A `Mode` from a wire integer; an out-of-range value is a MessageError naming the field."""
+    try:
+        return Mode(value)
+    except ValueError:
+        raise MessageError(channel, name, f"{value} is not a mode (0..{max(Mode)})") from None
+
+
 def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
     m = decode_raw(channel, data, spine_command_t)
     _check_header(channel, m)
-    try:
-        mode = Mode(m.mode)
-    except ValueError:
-        raise MessageError(channel, "mode", f"{m.mode} is not a mode (0..{max(Mode)})") from None
+    mode = _mode(channel, "mode", m.mode)
     _check_fields(channel, m, COMMAND_RANGES)
     return SpineCommand(mode=mode, x_d=np.array(m.x_d), dx_d=np.array(m.dx_d), ddx_d=np.array(m.ddx_d),
                         k=np.array(m.k), d=np.array(m.d), friction_compensation=bool(m.friction_compensation),
@@ -235,8 +243,11 @@ def decode_motor_command(data: bytes, channel: str = channels.MOTOR_COMMAND) -> 
 def decode_state(data: bytes, channel: str = channels.SPINE_STATE) -> SpineState:
     """Spine state (for tools and tests): fingerprint and length checked; values reported as sent."""
     m = decode_raw(channel, data, spine_state_t)
-    return SpineState(stamp_s=_s(m.utime), seq=m.seq, mode=Mode(m.mode),
-                      requested_mode=Mode(m.requested_mode),
+    mode, requested = _mode(channel, "mode", m.mode), _mode(channel, "requested_mode", m.requested_mode)
+    if m.faults < 0 or m.faults & ~_ALL_FAULTS:
+        raise MessageError(channel, "faults", f"{m.faults:#x} has bits that are not faults "
+                                              f"(known: {_ALL_FAULTS:#x})")
+    return SpineState(stamp_s=_s(m.utime), seq=m.seq, mode=mode, requested_mode=requested,
                       faults=Fault(m.faults), rejected=m.rejected, q=np.array(m.q), dq=np.array(m.dq),
                       tau_cmd=np.array(m.tau_cmd), tau_est=np.array(m.tau_est), x=np.array(m.x),
                       dx=np.array(m.dx), gain_scale=m.gain_scale, load_cell=np.array(m.load_cell),

@@ -9,6 +9,10 @@ carry; the CyberGear's 7.75:1 gearbox is inside the motor, its frames are alread
 
 `gear_ratio` is any transmission between the motor's output shaft and the joint (1 on the SPARC spine);
 `torque_scale` corrects the motor's torque estimate if a bench calibration says so (1 by default).
+
+Joints are matched by `name` (q2, q3, q4: `params.ACTUATED_JOINTS`), never by their order in the file: the
+config keeps them in the node's joint order, so joint i's torque always goes to that joint's CAN id.
+Every value is checked when the file is read (`ConfigError` names the file, the table and the field).
 """
 
 from __future__ import annotations
@@ -18,7 +22,8 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from spine_module.buses.cybergear.protocol import DEFAULT_HOST_ID, Ranges
+from spine_module.buses.cybergear.protocol import CAN_TIMEOUT_TICKS_PER_S, DEFAULT_HOST_ID, Ranges
+from spine_module.params import ACTUATED_JOINTS
 
 DEFAULT_CONFIG_PATH = Path(__file__).with_name("motors.toml")
 
@@ -38,6 +43,9 @@ class JointConfig:
     torque_scale: float = 1.0
 
     def __post_init__(self) -> None:
+        for f in ("zero_offset_rad", "gear_ratio", "torque_scale"):
+            if not math.isfinite(getattr(self, f)):
+                raise ValueError(f"{self.name}: {f} must be finite, got {getattr(self, f)}")
         if self.direction not in (1, -1):
             raise ValueError(f"{self.name}: direction must be +1 or -1, got {self.direction}")
         if not 1 <= self.can_id <= 0x7F:
@@ -71,6 +79,10 @@ class JointConfig:
         return kd / (self.gear_ratio**2 * self.torque_scale)
 
 
+class ConfigError(ValueError):
+    """A motors.toml that cannot be used; the message names the file and the field."""
+
+
 @dataclass(frozen=True)
 class CyberGearConfig:
     joints: tuple[JointConfig, ...]
@@ -81,18 +93,53 @@ class CyberGearConfig:
     limit_torque_nm: float = 12.0
     handshake_timeout_s: float = 1.0
     silent_timeout_s: float = 0.05  # a motor silent this long mid-run is a lost motor
+    # the motors' own CAN watchdog (firmware CAN_TIMEOUT, 0x200C): no frame for this long -> the motor
+    # stops. Written and read back at start-up; 0 leaves it off (then run `motors watchdog`, see README)
+    can_timeout_s: float = 0.05
     rate_hz: float = 1000.0  # for the bus-load check
     bitrate: int = 1_000_000
+    joint_names: tuple[str, ...] = ACTUATED_JOINTS  # the node's joint order
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.torque_mode not in ("operation", "current"):
             raise ValueError(f"torque_mode must be 'operation' or 'current', got {self.torque_mode!r}")
+        names = [j.name for j in self.joints]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"joint {', '.join(dup)} listed more than once")
+        unknown = [n for n in names if n not in self.joint_names]
+        if unknown:
+            raise ValueError(f"unknown joint {', '.join(map(repr, unknown))} (the spine's joints are "
+                             f"{', '.join(self.joint_names)})")
+        missing = [n for n in self.joint_names if n not in names]
+        if missing:
+            raise ValueError(f"no entry for joint {', '.join(missing)} (every one of "
+                             f"{', '.join(self.joint_names)} needs a [[joint]] with its can_id)")
+        by_name = {j.name: j for j in self.joints}
+        object.__setattr__(self, "joints", tuple(by_name[n] for n in self.joint_names))
         ids = [j.can_id for j in self.joints]
         if len(set(ids)) != len(ids):
             raise ValueError(f"duplicate CAN ids in {ids}")
+        if not 0 <= self.host_id <= 0xFF:
+            raise ValueError(f"host_id must be 0..255, got {self.host_id}")
         if self.host_id in ids:
             raise ValueError(f"host id {self.host_id} collides with a motor id")
+        for f in ("kt_nm_per_a", "position_max_rad", "limit_torque_nm", "handshake_timeout_s",
+                  "silent_timeout_s", "rate_hz", "bitrate"):
+            v = getattr(self, f)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{f} must be a finite number > 0, got {v}")
+        if not (math.isfinite(self.can_timeout_s) and self.can_timeout_s >= 0):
+            raise ValueError(f"can_timeout_s must be a finite number >= 0 (0: off), got {self.can_timeout_s}")
+        if self.can_timeout_ticks > CAN_TIMEOUT_MAX_TICKS:
+            raise ValueError(f"can_timeout_s must be <= {CAN_TIMEOUT_MAX_TICKS / CAN_TIMEOUT_TICKS_PER_S:g} "
+                             f"s (the firmware's CAN_TIMEOUT range), got {self.can_timeout_s}")
+
+    @property
+    def can_timeout_ticks(self) -> int:
+        """The firmware's CAN_TIMEOUT value for `can_timeout_s` (see protocol.CAN_TIMEOUT_TICKS_PER_S)."""
+        return round(self.can_timeout_s * CAN_TIMEOUT_TICKS_PER_S)
 
     @property
     def ranges(self) -> Ranges:
@@ -106,33 +153,91 @@ class CyberGearConfig:
         return replace(self, **kw)
 
 
-def _pos_max(value: float | str) -> float:
-    if isinstance(value, str):
-        if value.strip().lower() in ("4pi", "4*pi"):
+CAN_TIMEOUT_MAX_TICKS = 100_000  # the manual's maximum for CAN_TIMEOUT
+
+# key -> (kind, default); kinds: "float" (finite), "int", "str", "pos" (float or "4pi")
+_BUS_KEYS = {"host_id": ("int", DEFAULT_HOST_ID), "torque_mode": ("str", "operation"),
+             "kt_nm_per_a": ("float", KT_NM_PER_A), "position_max_rad": ("pos", 12.5),
+             "limit_torque_nm": ("float", 12.0), "handshake_timeout_s": ("float", 1.0),
+             "silent_timeout_s": ("float", 0.05), "can_timeout_s": ("float", 0.05),
+             "rate_hz": ("float", 1000.0), "bitrate": ("int", 1_000_000)}
+_JOINT_KEYS = {"name": ("str", None), "can_id": ("int", None), "direction": ("int", 1),
+               "zero_offset_rad": ("float", 0.0), "gear_ratio": ("float", 1.0),
+               "torque_scale": ("float", 1.0)}
+
+
+def _value(where: str, key: str, kind: str, v: object) -> object:
+    if kind == "str":
+        if not isinstance(v, str):
+            raise ValueError(f"{where}.{key} must be a string, got {v!r}")
+        return v
+    if kind == "int":
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ValueError(f"{where}.{key} must be an integer, got {v!r}")
+        return v
+    if kind == "pos" and isinstance(v, str):
+        if v.strip().lower() in ("4pi", "4*pi"):
             return 4 * math.pi
-        return float(value)
-    return float(value)
+        raise ValueError(f"{where}.{key} must be a number or \"4pi\", got {v!r}")
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"{where}.{key} must be a number, got {v!r}")
+    if not math.isfinite(v):
+        raise ValueError(f"{where}.{key} must be finite, got {v}")
+    return float(v)
+
+
+def _table(where: str, raw: object, keys: dict[str, tuple[str, object]]) -> dict[str, object]:
+    if not isinstance(raw, dict):
+        raise ValueError(f"{where} must be a table, got {type(raw).__name__}")
+    unknown = [k for k in raw if k not in keys]
+    if unknown:
+        raise ValueError(f"{where}: unknown key {', '.join(map(repr, unknown))} (known: {', '.join(keys)})")
+    out = {}
+    for k, (kind, default) in keys.items():
+        if k in raw:
+            out[k] = _value(where, k, kind, raw[k])
+        elif default is None:
+            raise ValueError(f"{where}: missing {k!r}")
+        else:
+            out[k] = default
+    return out
+
+
+def parse_config(raw: dict) -> CyberGearConfig:
+    """A config from the parsed TOML tables; ValueError naming the table and field."""
+    unknown = [k for k in raw if k not in ("bus", "joint")]
+    if unknown:
+        raise ValueError(f"unknown table or key {', '.join(map(repr, unknown))} (known: [bus], [[joint]])")
+    bus = _table("[bus]", raw.get("bus", {}), _BUS_KEYS)
+    joints_raw = raw.get("joint", [])
+    if isinstance(joints_raw, dict):
+        raise ValueError("[joint] is a single table: write each joint as [[joint]] (an array of tables)")
+    if not isinstance(joints_raw, list) or not joints_raw:
+        raise ValueError("no [[joint]] entries")
+    joints = []
+    for i, j in enumerate(joints_raw):
+        name = j.get("name") if isinstance(j, dict) else None
+        where = f"[[joint]] #{i + 1}" + (f" ({name})" if isinstance(name, str) else "")
+        vals = _table(where, j, _JOINT_KEYS)
+        try:
+            joints.append(JointConfig(**vals))
+        except ValueError as e:
+            raise ValueError(f"{where}: {e}") from None
+    return CyberGearConfig(joints=tuple(joints), **bus)
 
 
 def load_config(path: str | Path | None = None) -> CyberGearConfig:
-    """Read the TOML file (default: the packaged `motors.toml`)."""
+    """Read and check the TOML file (default: the packaged `motors.toml`). Raises ConfigError naming the
+    file and the field for a missing/unreadable file, bad TOML, unknown keys, or bad values."""
     path = Path(path) if path is not None else DEFAULT_CONFIG_PATH
-    with open(path, "rb") as f:
-        raw = tomllib.load(f)
-    bus = raw.get("bus", {})
-    joints = tuple(JointConfig(name=j["name"], can_id=int(j["can_id"]), direction=int(j.get("direction", 1)),
-                               zero_offset_rad=float(j.get("zero_offset_rad", 0.0)),
-                               gear_ratio=float(j.get("gear_ratio", 1.0)),
-                               torque_scale=float(j.get("torque_scale", 1.0)))
-                   for j in raw.get("joint", []))
-    if not joints:
-        raise ValueError(f"{path}: no [[joint]] entries")
-    return CyberGearConfig(
-        joints=joints, host_id=int(bus.get("host_id", DEFAULT_HOST_ID)),
-        torque_mode=str(bus.get("torque_mode", "operation")),
-        kt_nm_per_a=float(bus.get("kt_nm_per_a", KT_NM_PER_A)),
-        position_max_rad=_pos_max(bus.get("position_max_rad", 12.5)),
-        limit_torque_nm=float(bus.get("limit_torque_nm", 12.0)),
-        handshake_timeout_s=float(bus.get("handshake_timeout_s", 1.0)),
-        silent_timeout_s=float(bus.get("silent_timeout_s", 0.05)),
-        rate_hz=float(bus.get("rate_hz", 1000.0)), bitrate=int(bus.get("bitrate", 1_000_000)))
+    try:
+        with open(path, "rb") as f:
+            raw = tomllib.load(f)
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot read the motor config: {e.strerror or e}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ConfigError(f"{path}: not valid TOML: {e}") from None
+    try:
+        return parse_config(raw)
+    except ValueError as e:
+        raise ConfigError(f"{path}: {e}") from None

@@ -10,8 +10,9 @@ Torque control, chosen in the configuration:
 - "current": run_mode 3; each cycle writes iq_ref = tau / kt (type 18), the PD part is closed here from the
   newest feedback. Each write is answered by a type-2 feedback frame.
 
-Safety: the motor has no watchdog of its own (CAN_TIMEOUT defaults to 0), so `stop()` sends type-4 frames
-and is called on exit, on exceptions (`with` block), and on SIGINT/SIGTERM (`install_stop_handlers`).
+Safety: the motor's own watchdog (firmware CAN_TIMEOUT, off by default) is written at start-up from the
+config's `can_timeout_s` and read back; `start()` refuses to run when it cannot be set. On top, `stop()`
+sends type-4 frames on exit, on exceptions (`with` block), and on SIGINT/SIGTERM (`install_stop_handlers`).
 Transport faults, motors silent past `silent_timeout_s`, malformed frames from a configured motor, fault
 frames (type 21) and fault bits in feedback all raise `MotorBusError`, the node's cue for its safe state.
 """
@@ -26,7 +27,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import can
@@ -59,6 +60,7 @@ class _JointState:
     uid: bytes | None = None
     unanswered_since: float | None = None  # monotonic time of the oldest command without a reply
     run_seen: bool = False  # reported RUN since the last enable
+    params: dict[int, tuple[bool, float | int]] = field(default_factory=dict)  # index -> (ok, value) read
 
 
 def open_bus(interface: str, channel: str, bitrate: int | None = None, **kwargs) -> can.BusABC:
@@ -110,6 +112,7 @@ class CanMotorBus(MotorBus):
         self.send_errors = 0
         self.ignored: Counter[str] = Counter()  # frames not for us: reason -> count
         self.last_error: str | None = None
+        self.can_timeout_confirmed: dict[str, int] = {}  # joint -> CAN_TIMEOUT read back at start-up
         self._logger = _SessionLog(log_path) if log_path else None
         self._notifier = can.Notifier(self.bus, [_Listener(self)], timeout=0.05)
         self.load = bus_load(len(config.joints), config.rate_hz, config.bitrate)
@@ -168,6 +171,8 @@ class CanMotorBus(MotorBus):
                     log.warning("motor %s warning %#x", j.name, frame.warning_value)
             elif isinstance(frame, P.DeviceId):
                 s.uid = frame.uid
+            elif isinstance(frame, P.ParamReadReply):
+                s.params[frame.index] = (frame.ok, frame.value)
             self._cond.notify_all()
 
     def _on_error(self, exc: Exception) -> None:
@@ -256,14 +261,22 @@ class CanMotorBus(MotorBus):
         with self._cond:
             for s in self._state:
                 s.run_seen = False
+            self._enabled = True  # before the frames: a motor that then drops out of RUN is a fault
         for j in self.config.joints:
             self._send(P.encode_enable(j.can_id, self.config.host_id))
-        self._enabled = True
 
     def _send_stops(self, clear_fault: bool = False) -> None:
-        """Type 4 to every motor; tries every motor even if one send fails, then raises the first error."""
+        """Type 4 to every motor; tries every motor even if one send fails, then raises the first error.
+
+        `_enabled` is cleared (under the lock) BEFORE the first frame goes out: a motor answers a stop
+        within about 250 us, often before `send` returns, and its RESET reply to our own stop must not
+        read as "left run mode"."""
         first: Exception | None = None
         now = self._clock()
+        with self._cond:
+            self._enabled = False
+            for s in self._state:
+                s.run_seen = False
         for i, j in enumerate(self.config.joints):
             try:
                 with self._cond:
@@ -272,7 +285,6 @@ class CanMotorBus(MotorBus):
                 self.stop_frames_sent += 1
             except Exception as e:
                 first = first or e
-        self._enabled = False
         if first is not None:
             raise first
 
@@ -361,12 +373,15 @@ class CanMotorBus(MotorBus):
                 for s in self._state:
                     s.frames = 0
             run_mode = P.RunMode.OPERATION if cfg.torque_mode == "operation" else P.RunMode.CURRENT
+            with self._cond:
+                self._enabled = False
             for j in cfg.joints:  # the firmware switches mode only when stopped
                 self._send(P.encode_stop(j.can_id, host, clear_fault=True))
                 self._send(P.encode_param_write(j.can_id, "run_mode", int(run_mode), host))
                 self._send(P.encode_param_write(j.can_id, "limit_torque", cfg.limit_torque_nm, host))
                 if run_mode == P.RunMode.CURRENT:
                     self._send(P.encode_param_write(j.can_id, "iq_ref", 0.0, host))
+            self._set_can_timeout(timeout_s)
             self._send_enables()
             missing = self._wait_all(
                 lambda s: s.frames >= 1 and s.mode == P.MotorMode.RUN and not s.fault_bits, timeout_s)
@@ -388,6 +403,39 @@ class CanMotorBus(MotorBus):
         except BaseException:
             self.stop()
             raise
+
+    def _set_can_timeout(self, timeout_s: float) -> None:
+        """Write the firmware's CAN_TIMEOUT (see protocol.CAN_TIMEOUT_INDEX for the source and its doubts)
+        to every motor and read it back; MotorBusError naming the motors where the read-back is missing
+        or differs. `can_timeout_s = 0` in the config skips this (and warns: nothing then stops the motors
+        if this process dies without running its stop handlers, except the separate watchdog)."""
+        cfg, host, idx = self.config, self.config.host_id, P.CAN_TIMEOUT_INDEX
+        if cfg.can_timeout_s <= 0:
+            log.warning("can_timeout_s = 0: the motors' own CAN timeout is not set; if this process is "
+                        "killed the motors keep their last command unless `sparc-quad motors watchdog` runs")
+            return
+        ticks = cfg.can_timeout_ticks
+        with self._cond:
+            for s in self._state:
+                s.params.pop(idx, None)
+        for j in cfg.joints:
+            self._send(P.encode_param_write(j.can_id, idx, ticks, host))
+            self._send(P.encode_param_read(j.can_id, idx, host))
+        self._wait_all(lambda s: idx in s.params, timeout_s)
+        bad = []
+        with self._cond:
+            for s, j in zip(self._state, cfg.joints, strict=True):
+                got = s.params.get(idx)
+                if got is None:
+                    bad.append(f"{j.name} (CAN id {j.can_id}): no read-back")
+                elif not got[0] or got[1] != ticks:
+                    bad.append(f"{j.name} (CAN id {j.can_id}): read back {got[1]!r}"
+                               + ("" if got[0] else " (read failed)"))
+        if bad:
+            raise MotorBusError(f"could not set the motors' CAN timeout (CAN_TIMEOUT 0x{idx:04X} = {ticks}, "
+                                f"{cfg.can_timeout_s:g} s): {'; '.join(bad)}. Refusing to run: set "
+                                f"can_timeout_s = 0 in the motor config only with the watchdog running")
+        self.can_timeout_confirmed = {j.name: ticks for j in cfg.joints}
 
     def shutdown(self) -> None:
         """Stop the motors (the CyberGear has no watchdog: never leave them running), then release the bus."""

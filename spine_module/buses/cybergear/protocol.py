@@ -118,7 +118,21 @@ class ParamSpec:
     unit: str = ""
 
 
+# CAN_TIMEOUT, the firmware's own CAN watchdog (no host frame for this long: the motor leaves run mode).
+# Source: the CyberGear instruction manual, section 3.3.3 "Parameter list" (debugger parameter table; public
+# English translation github belovictor/cybergear-docs, instructionmanual.md): "0x200c CAN_TIMEOUT uint32
+# read/write, max 100000, min 0, current value 0, can timeout threshold, default 0". That table gives no
+# unit and section 4's type-17/18 list (0x7005-0x7020) does not list it: reading and writing 0x200C with
+# types 17/18 is what public drivers of the same firmware family do (RobStride's 0x20xx table through the
+# same frames), NOT confirmed on a CyberGear here. The unit is taken from RobStride's manual, whose
+# CAN_TIMEOUT note reads "20000 = 1 s" (50 us ticks): ASSUMED for the CyberGear, check on the first motor
+# (`sparc-quad motors status` prints the read-back). Because of both doubts the driver reads the value
+# back and refuses to run when it does not match, and README describes the separate watchdog fallback.
+CAN_TIMEOUT_INDEX = 0x200C
+CAN_TIMEOUT_TICKS_PER_S = 20_000
+
 PARAMS: tuple[ParamSpec, ...] = (
+    ParamSpec(CAN_TIMEOUT_INDEX, "CAN_TIMEOUT", "I", 0, 100_000, True, "1/20000 s"),
     ParamSpec(0x7005, "run_mode", "B", 0, 3, True),
     ParamSpec(0x7006, "iq_ref", "f", -23.0, 23.0, True, "A"),
     ParamSpec(0x700A, "spd_ref", "f", -30.0, 30.0, True, "rad/s"),
