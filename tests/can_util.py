@@ -54,10 +54,10 @@ def virtual_rig(ids=(1, 2, 3), lockstep: bool = True, **emu_kw) -> Iterator[tupl
 
 
 def rig_config(**kw):
-    """The packaged config with a silent-motor timeout that tolerates a loaded CI machine (stalls of
-    ~80 ms were seen here with 5 users on 2 cores)."""
+    """The packaged config with silent-motor and motor CAN timeouts that tolerate a loaded CI machine
+    (stalls of ~80 ms were seen here with 5 users on 2 cores)."""
     from spine_module.buses.cybergear import load_config
-    return load_config().with_(**{"silent_timeout_s": 0.5, **kw})
+    return load_config().with_(**{"silent_timeout_s": 0.5, "can_timeout_s": 0.5, **kw})
 
 
 def stops_to(sniffer: Sniffer, motor_id: int) -> int:

@@ -49,7 +49,7 @@ def test_handshake_and_pure_torque_operation_control():
                 kinds = [type(f) for f in emu.frames_of(P.Frame, i)]
                 assert kinds[:7] == [P.GetId, P.Stop, P.ParamWrite, P.ParamWrite, P.ParamWrite, P.ParamRead,
                                      P.Enable]  # run_mode, limit_torque, CAN_TIMEOUT (+ its read-back)
-                assert emu.motors[i].params["CAN_TIMEOUT"] == round(0.05 * P.CAN_TIMEOUT_TICKS_PER_S)
+                assert emu.motors[i].params["CAN_TIMEOUT"] == round(0.5 * P.CAN_TIMEOUT_TICKS_PER_S)
                 assert emu.frames_of(P.Stop, i)[0].clear_fault
                 assert emu.motors[i].mode == P.MotorMode.RUN and emu.motors[i].params["run_mode"] == 0
             fb = mb.receive(1.0)
