@@ -122,7 +122,8 @@ def test_emulated_can_timeout_stops_a_motor_on_its_own_clock():
                 mb.start()
                 assert mb.receive(1.0) is not None
                 mb.send(MotorCommand(tau_ff=np.full(3, 0.5)))
-                assert wait_for(lambda: all(abs(float(m.cmd.tau_ff) - 0.5) < 1e-3 for m in emu.motors.values()))
+                assert wait_for(lambda: all(abs(float(m.cmd.tau_ff) - 0.5) < 1e-3
+                                            for m in emu.motors.values()))
                 emu.step()
                 assert all(m.last_torque == pytest.approx(0.5, abs=1e-3) for m in emu.motors.values())
                 t[0] += 0.0299
