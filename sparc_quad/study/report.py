@@ -28,8 +28,10 @@ METRICS = (
     ("cot_pos_total", "CoT_pos (legs + spine, positive work)"),
     ("cot_pos_legs", "CoT_pos legs only"),
     ("cot_abs_total", "CoT_abs (legs + spine, |tau dq|)"),
+    ("cot_net_total", "CoT_net (legs + spine, perfect regeneration)"),
     ("cot_elec_total", "CoT_elec (legs + spine, with winding losses)"),
 )
+PLOTTED = ("cot_pos_total", "cot_pos_legs", "cot_abs_total")
 EXTRA = ("speed_m_s", "stride_length_m", "stride_frequency_hz")
 BASELINES = ("rigid", "rigid-impedance")
 
@@ -75,6 +77,7 @@ class Cell:
     est: Estimate | None
     diff_pct: Estimate | None  # against the panel's rigid spine, paired by seed
     extras: dict = field(default_factory=dict)
+    seeds: dict = field(default_factory=dict, repr=False)  # seed -> values (pairing against other cells)
 
     @property
     def hatched(self) -> bool:
@@ -211,13 +214,13 @@ def analyse(trials: list[Trial], n_boot: int = 2000) -> dict:
                 diff = None
                 if base_trials and spine != base_spine:
                     diff = paired_difference(seeds, _by_seed(base_trials, m), n_boot=n_boot)
-                cells.append(Cell(name, spine, k, d, m, len(ts), nf, rate, lo, hi, est, diff, extras))
-    return {"panels": panels, "metrics": metrics, "cells": cells, "optima": optima(cells)}
+                cells.append(Cell(name, spine, k, d, m, len(ts), nf, rate, lo, hi, est, diff, extras, seeds))
+    return {"panels": panels, "metrics": metrics, "cells": cells, "optima": optima(cells, n_boot)}
 
 
-def optima(cells: list[Cell]) -> list[dict]:
+def optima(cells: list[Cell], n_boot: int = 2000) -> list[dict]:
     """Per (panel, spine, metric) over k x d: the lowest mean among cells where nothing fell, and the
-    cells whose CI reaches below the best cell's upper bound (not distinguishable from it)."""
+    cells not distinguishable from it (their difference to it, paired by seed, has a CI reaching 0)."""
     out = []
     key = defaultdict(list)
     for c in cells:
@@ -229,8 +232,11 @@ def optima(cells: list[Cell]) -> list[dict]:
             out.append({"panel": panel, "spine": spine, "metric": metric, "best": None})
             continue
         best = min(good, key=lambda c: c.est.value)
-        top = best.est.hi if best.est.hi is not None else best.est.value
-        near = [c for c in good if (c.est.lo if c.est.lo is not None else c.est.value) <= top]
+        near = []
+        for c in good:
+            diff = None if c is best else paired_difference(c.seeds, best.seeds, n_boot=n_boot)
+            if c is best or diff is None or diff.overlaps(0.0) or (diff.lo is not None and diff.lo <= 0.0):
+                near.append(c)
         out.append(
             {
                 "panel": panel,
@@ -379,13 +385,13 @@ def plot_vs_k(panel: dict, metric: str, cells: list[Cell], fn: dict[float, float
             if base.est.lo is not None:
                 ax.axhspan(base.est.lo, base.est.hi, color="0.85", zorder=0)
         ds = sorted({c.d for c in mine if c.spine == spine and c.d is not None}) or [None]
-        for d in ds:
+        for i_d, d in enumerate(ds):
             cs = sorted(
                 (c for c in mine if c.spine == spine and c.d == d and c.k is not None), key=lambda c: c.k
             )
             if not cs:
                 continue
-            x = np.array([c.k for c in cs])
+            x = np.array([c.k for c in cs]) * (1.0 + 0.012 * (i_d - (len(ds) - 1) / 2))  # dodge the d lines
             y = np.array([c.est.value for c in cs])
             lo = np.array([c.est.lo if c.est.lo is not None else c.est.value for c in cs])
             hi = np.array([c.est.hi if c.est.hi is not None else c.est.value for c in cs])
@@ -471,8 +477,14 @@ def write_report(folder: Path, n_boot: int = 2000) -> list[Path]:
     }
     atomic_write_text(out / "cells.json", json.dumps(jsonable(doc), indent=1, allow_nan=False) + "\n")
     paths.append(out / "cells.json")
+    from sparc_quad.study.claims import evaluate, markdown
+
+    claims = evaluate(res)
+    atomic_write_text(out / "claims.json", json.dumps(jsonable(claims), indent=1, allow_nan=False) + "\n")
+    atomic_write_text(out / "claims.md", markdown(claims))
+    paths += [out / "claims.json", out / "claims.md"]
     for panel in res["panels"]:
-        for m in res["metrics"]:
+        for m in [m for m in res["metrics"] if m in PLOTTED]:
             p = plot_heatmap(panel, m, res["cells"], out / f"heatmap_{panel['panel']}_{m}.png")
             if p:
                 paths.append(p)
