@@ -187,3 +187,55 @@ class SpineParams:
 
 
 DEFAULT_SPINE = SpineParams()
+
+
+# --- Spine variants of the stiffness study (issue 13) -----------------------------------------------
+# "rigid-impedance": the impedance controller made stiff. k_theta = 1e4 N/m x (0.1 m)^2 is the same
+# stiffness felt at a 0.1 m lever; damping near 0.2 of critical for the ~0.4 kg / ~3e-3 kg*m^2 the spine
+# moves (INTERPRETATION: the issue names k = 1e4 only).
+K_RIGID_IMPEDANCE = np.array([1.0e4, 1.0e4, 100.0])  # N/m, N/m, N*m/rad
+D_RIGID_IMPEDANCE = np.array([25.0, 25.0, 0.25])  # N*s/m, N*s/m, N*m*s/rad
+
+# The authors' bound (github YueWang996/sparc, mujoco_simulation/main_robot.py): spine impedance for the
+# first 4 s, then the run's gains with the target pulled in to 0.268 m.
+AUTHORS_SPINE_K = np.array([800.0, 2000.0, 15.0])  # N/m, N/m, N*m/rad (both phases)
+AUTHORS_SPINE_D_START = np.array([15.0, 5.0, 1.5])  # N*s/m, N*s/m, N*m*s/rad, t < 4 s
+AUTHORS_SPINE_D_RUN = np.array([8.0, 5.0, 0.5])  # after the switch
+AUTHORS_SPINE_SWITCH_S = 4.0
+AUTHORS_X_D_START_M = 0.273
+AUTHORS_X_D_RUN_M = 0.268
+AUTHORS_SPINE_RATE_HZ = 200.0
+
+
+# --- Electrical losses (CoT_elec): copper loss per actuator = LOSS * tau_out^2 (W, tau in N*m) --------
+@dataclass(frozen=True)
+class WindingLoss:
+    """Winding (I^2 R) loss of one actuator from its output-side torque constant and resistance.
+
+    `kt_nm_per_a`: output torque per ampere of the current the datasheet quotes; `phase_resistance_ohm`;
+    `loss_w_per_nm2` = 3 R_phase / kt^2 for an RMS-current kt, 1.5 R_phase / kt^2 for a peak (dq) one.
+    """
+
+    name: str
+    kt_nm_per_a: float
+    phase_resistance_ohm: float
+    current_is_rms: bool
+    source: str
+
+    @property
+    def loss_w_per_nm2(self) -> float:
+        phases = 3.0 if self.current_is_rms else 1.5
+        return phases * self.phase_resistance_ohm / self.kt_nm_per_a**2
+
+
+# CyberGear manual §1.3: torque constant 0.87 N*m/Arms (output side), line resistance 0.45 ohm (wye:
+# 0.225 ohm per phase). -> 0.89 W/(N*m)^2.
+CYBERGEAR_WINDING = WindingLoss("CyberGear", 0.87, 0.45 / 2, True,
+                                "Xiaomi CyberGear micromotor manual, section 1.3 electrical characteristics")
+# Solo12 actuator (ODRI open_robot_actuator_hardware, actuator_module_v1 README): T-Motor Antigravity 4004
+# 300 kV, Rs = 0.23255 ohm per phase (Motorware ID), motor kt 0.025 N*m/A (Grimminger et al. 2020, RA-L
+# 5(2)) through the 9:1 belt drive = 0.225 N*m/A on the dq current. -> 6.9 W/(N*m)^2.
+# INTERPRETATION: the sim's legs give up to 8 N*m (3x a real Solo12 actuator), so leg losses at high torque
+# extrapolate this actuator beyond its range.
+SOLO12_WINDING = WindingLoss("Solo12 (Antigravity 4004 300kV, 9:1)", 0.025 * 9.0, 0.23255, False,
+                             "ODRI actuator_module_v1 README (Rs); Grimminger et al. 2020 (kt, 9:1)")

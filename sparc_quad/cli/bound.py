@@ -62,7 +62,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--slope", type=float, default=0.0, help="ground slope, rad; > 0 uphill (default %(default)s)"
     )
-    p.add_argument("--rigid-spine", action="store_true", help="baseline: spine held rigid at its equilibrium")
+    p.add_argument("--rigid-spine", action="store_true",
+                   help="baseline: spine joints locked at the equilibrium arch (pybullet fixed constraints)")
     p.add_argument(
         "--friction-comp", action="store_true", help="enable the controller's friction compensation"
     )
@@ -134,9 +135,12 @@ def run(args: argparse.Namespace) -> int:
     result = run_bound(cfg, spine=spine, video=args.video)
     paths = write_outputs(result, args.out)
     m = result.metrics
-    summary = {k: m.get(k) for k in ("fell", "fall_time_s", "mean_speed_m_s", "cost_of_transport",
-                                      "stride_frequency_hz", "stride_length_m", "peak_spine_torque_nm")}
-    print(json.dumps(summary, indent=2))
+    summary = {k: m.get(k) for k in ("fell", "fall_time_s", "fall_reason", "mean_speed_m_s", "cot_pos",
+                                      "cost_of_transport", "stride_frequency_hz", "stride_length_m",
+                                      "peak_spine_torque_nm", "window_ok")}
+    print(json.dumps(summary, indent=2, default=float))
+    if not m.get("window_ok", False):
+        print(f"warning: {m.get('warning', 'steady window too short')} (metrics.json has window_ok: false)")
     for path in paths:
         print(f"wrote {path}")
     return 1 if m["fell"] else 0

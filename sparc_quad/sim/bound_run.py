@@ -7,18 +7,24 @@ into metrics.json, a CSV time series and PNG plots.
 
 from __future__ import annotations
 
+import collections
 import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from sparc_quad.gaits.bound import BoundController, BoundParams
+from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
+from sparc_quad.sim import gait_metrics
 from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
-from sparc_quad.sim.spine_drive import SpineGains, make_spine_drive
+from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
+
+LEGS = ("HL", "HR", "FL", "FR")
+LEG_JOINTS = tuple(f"{leg}_{j}" for leg in LEGS for j in ("haa", "hfe", "kfe"))
 
 COLUMNS = (
     "t",
@@ -54,16 +60,29 @@ COLUMNS = (
     "leg_power_w",
     "spine_power_w",
     "leg_tau_max",
+    # appended for the stiffness study (issue 13): every joint's applied torque and rate, the gait clock
+    *(f"tau_{j}" for j in LEG_JOINTS),
+    *(f"dq_{j}" for j in LEG_JOINTS),
+    "gait_phase",  # gait clock, cycles in [0, 1): a stride starts where it wraps
+    "gait_frequency_hz",
+    "spine_spring_energy_j",  # passive spine: energy stored in the spring
 )
+_TAU0 = COLUMNS.index("tau_HL_haa")
+_DQ0 = COLUMNS.index("dq_HL_haa")
+_PH = COLUMNS.index("gait_phase")
 
 
 @dataclass(frozen=True)
 class BoundConfig:
     duration_s: float = 10.0
-    gait: BoundParams = field(default_factory=BoundParams)
+    gait: BoundParams | SineBoundParams = field(default_factory=BoundParams)
     world: WorldConfig = field(default_factory=WorldConfig)
     spine: SpineGains = field(default_factory=SpineGains)
-    rigid_spine: bool = False
+    rigid_spine: bool = False  # same as spine_variant="rigid" (locked joints)
+    spine_variant: str = "impedance"  # impedance | passive | rigid | rigid-impedance (spine_drive)
+    spine_schedule: SpineSchedule | None = None  # the authors' gain switch (gait A)
+    spine_rate_hz: float | None = None  # motor-rendered spine controller rate (None: every sim step)
+    actuator_latency_steps: int = 0  # every joint torque is applied this many 1 ms steps late
     friction_compensation: bool = False
     stop_on_fall: bool = True
     realtime: bool = False  # pace the loop to the wall clock (the robot's real-time mode)
@@ -87,7 +106,9 @@ class SpineInProcess:
     """The spine controller called in the sim process (the `--lcm` path swaps this for a bridge)."""
 
     def __init__(self, cfg: BoundConfig):
-        self.drive = make_spine_drive(cfg.spine, rigid=cfg.rigid_spine, friction=cfg.friction_compensation)
+        self.drive = make_spine_drive(cfg.spine, rigid=cfg.rigid_spine, friction=cfg.friction_compensation,
+                                      variant=cfg.spine_variant, schedule=cfg.spine_schedule,
+                                      rate_hz=cfg.spine_rate_hz, dt_s=cfg.world.dt_s)
         self._q = np.zeros(4)
         self._dq = np.zeros(4)
 
@@ -101,6 +122,10 @@ class SpineInProcess:
     @property
     def task_pose(self):
         return self.drive.x
+
+    @property
+    def energy_j(self) -> float:
+        return getattr(self.drive, "energy_j", 0.0)
 
     def close(self) -> None:
         pass
@@ -120,6 +145,26 @@ def fall_reason(world: QuadrupedWorld, pitch_front: float) -> str | None:
 VIDEO_FPS = 25
 
 
+def variant_of(cfg: BoundConfig) -> str:
+    return "rigid" if cfg.rigid_spine else cfg.spine_variant
+
+
+def make_gait(world: QuadrupedWorld, params: BoundParams | SineBoundParams):
+    if isinstance(params, SineBoundParams):
+        return SineBoundController(world, params)
+    return BoundController(world, params)
+
+
+def _gait_phase_cycles(gait) -> float:
+    if isinstance(gait, SineBoundController):
+        return gait.gait_phase / (2 * math.pi)
+    return gait.phase
+
+
+def _gait_frequency(gait) -> float:
+    return gait.frequency_hz if isinstance(gait, SineBoundController) else gait.p.frequency_hz
+
+
 def run_bound(
     cfg: BoundConfig,
     spine=None,
@@ -133,15 +178,21 @@ def run_bound(
     frames: list = []
     if video:
         on_frame, frame_every_s = (lambda w: frames.append(w.render())), 1.0 / VIDEO_FPS
-    world = QuadrupedWorld(cfg.world)
+    variant = variant_of(cfg)
+    world_cfg = replace(cfg.world, lock_spine=True) if variant == "rigid" else cfg.world
+    world = QuadrupedWorld(world_cfg)
     spine = spine if spine is not None else SpineInProcess(cfg)
-    gait = BoundController(world, cfg.gait)
+    gait = make_gait(world, cfg.gait)
+    observe_spine = getattr(gait, "observe_spine", None)
     dt = cfg.world.dt_s
     n = round(cfg.duration_s / dt)
     log = np.zeros((n, len(COLUMNS)))
     frame_every = round(frame_every_s / dt) if frame_every_s > 0 else 0
-    fell, fall_t, reason = False, None, None
-    legs_order = ("HL", "HR", "FL", "FR")
+    fell, fall_t, first_reason = False, None, None
+    legs_order = LEGS
+    latency = max(0, int(cfg.actuator_latency_steps))
+    pipe: collections.deque = collections.deque()
+    zero_legs = {k: (0.0, 0.0, 0.0) for k in legs_order}
     t0 = time.perf_counter()
     i = 0
     try:
@@ -150,7 +201,12 @@ def run_bound(
             est = world.estimate()
             tau_s = spine(est, world.q_spine, world.dq_spine, t)
             leg_tau = gait.step(t)
+            if latency:  # what the actuators apply now was commanded `latency` steps ago
+                pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
+                tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
             world.set_torques(tau_s, leg_tau)
+            if observe_spine is not None:
+                observe_spine(t, float(spine.task_pose[0]))
             # log the state the torques were computed from
             pitch_front = world.q1 + sum(world.q_spine)
             row = log[i]
@@ -166,14 +222,22 @@ def run_bound(
             row[29] = gait.stance_flags["front"]
             leg_p = 0.0
             leg_m = 0.0
-            for k in legs_order:
+            for n_leg, k in enumerate(legs_order):
                 st = world.leg_state(k)
                 ta = leg_tau[k]
                 leg_p += abs(ta[0] * st.dhaa) + abs(ta[1] * st.dhfe) + abs(ta[2] * st.dkfe)
                 leg_m = max(leg_m, abs(ta[1]), abs(ta[2]))
+                c = 3 * n_leg
+                row[_TAU0 + c: _TAU0 + c + 3] = ta
+                row[_DQ0 + c] = st.dhaa
+                row[_DQ0 + c + 1] = st.dhfe
+                row[_DQ0 + c + 2] = st.dkfe
             row[30] = leg_p
             row[31] = sum(abs(a * b) for a, b in zip(tau_s, world.dq_spine, strict=True))
             row[32] = leg_m
+            row[_PH] = _gait_phase_cycles(gait)
+            row[_PH + 1] = _gait_frequency(gait)
+            row[_PH + 2] = getattr(spine, "energy_j", 0.0)
             if frame_every and i % frame_every == 0 and on_frame is not None:
                 on_frame(world)
             world.step()
@@ -181,12 +245,13 @@ def run_bound(
                 lag = t0 + world.t - time.perf_counter()
                 if lag > 0:
                     time.sleep(lag)
-            reason = fall_reason(world, world.q1 + sum(world.q_spine))
-            if reason is not None and not fell:
-                fell, fall_t = True, world.t
-                if cfg.stop_on_fall:
-                    i += 1
-                    break
+            if not fell:  # the first fall's time and reason are kept (stop_on_fall=False runs on)
+                reason = fall_reason(world, world.q1 + sum(world.q_spine))
+                if reason is not None:
+                    fell, fall_t, first_reason = True, world.t, reason
+                    if cfg.stop_on_fall:
+                        i += 1
+                        break
         else:
             i = n
     finally:
@@ -196,12 +261,28 @@ def run_bound(
         world.close()
         spine.close()
     series = log[:i]
-    metrics = compute_metrics(series, cfg, mass, fell, fall_t, reason)
+    metrics = compute_metrics(series, cfg, mass, fell, fall_t, first_reason)
+    drive = getattr(spine, "drive", None)
+    actuated = bool(getattr(drive, "actuated", True))  # the node and LCM paths are motor-rendered
+    metrics.update(gait_metrics.study_metrics(series, cfg, mass, actuated=actuated,
+                                              t_start=metrics["window_s"][0]))
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
-    metrics["spine_driver"] = getattr(getattr(spine, "drive", None), "name", type(spine).__name__)
+    metrics["spine_driver"] = getattr(drive, "name", type(spine).__name__)
     node_states = spine.states_arrays() if hasattr(spine, "states_arrays") else None
     return BoundResult(cfg, metrics, series, wall, frames, node_states)
+
+
+def startup_s(cfg: BoundConfig) -> float:
+    """When the gait has reached its running state: start, ramps and (gait A) the spine switch."""
+    gp = cfg.gait
+    if isinstance(gp, SineBoundParams):
+        t = gp.start_s + gp.ramp_s
+        if cfg.spine_schedule is not None:
+            t = max(t, cfg.spine_schedule.switch_s)
+        return t
+    ramp = abs(gp.speed_m_s) / gp.accel_m_s2 if gp.accel_m_s2 > 0 else 0.0
+    return gp.start_s + ramp
 
 
 def _touchdowns(contact: np.ndarray) -> np.ndarray:
@@ -216,8 +297,7 @@ def compute_metrics(
     g = 9.81
     col = {name: s[:, k] for k, name in enumerate(COLUMNS)}
     gp = cfg.gait
-    ramp = abs(gp.speed_m_s) / gp.accel_m_s2 if gp.accel_m_s2 > 0 else 0.0
-    t_start = min(gp.start_s + ramp + cfg.settle_s, 0.5 * cfg.duration_s)
+    t_start = min(startup_s(cfg) + cfg.settle_s, 0.5 * cfg.duration_s)
     w = col["t"] >= t_start
     out: dict = {
         "fell": bool(fell),
@@ -229,7 +309,8 @@ def compute_metrics(
         "slope_rad": cfg.world.slope_rad,
         "target_speed_m_s": gp.speed_m_s,
         "gait_frequency_hz": gp.frequency_hz,
-        "rigid_spine": cfg.rigid_spine,
+        "rigid_spine": variant_of(cfg) == "rigid",
+        "spine_variant": variant_of(cfg),
         "spine_k": list(cfg.spine.k),
         "spine_d": list(cfg.spine.d),
     }
@@ -247,7 +328,8 @@ def compute_metrics(
     out["mean_speed_m_s"] = float(speed)
     out["distance_m"] = float(dist)
     out["cost_of_transport"] = energy / (mass * g * abs(dist)) if abs(dist) > 1e-6 else None
-    out["cost_of_transport_note"] = "sum over all 15 actuators of |tau * dq| integrated, / (m g distance)"
+    out["cost_of_transport_note"] = ("sum over all 15 joints of |tau * dq| integrated, / (m g distance) "
+                                     "(= cot_abs for the motor-rendered spine)")
     out["mean_power_w"] = {"legs": float(p_legs.mean()), "spine": float(p_spine.mean())}
     tds = _touchdowns(col["contact_HL"][w])
     if len(tds) >= 2:

@@ -53,6 +53,11 @@ class WorldConfig:
     imu: ImuConfig = field(default_factory=ImuConfig)
     stand_height_m: float = 0.22  # hip-to-foot-centre height of the initial stance
     solver_iterations: int = 50
+    mass_scale: float = 1.0  # every link's mass and inertia times this (study seeds: +-5 %)
+    init_pitch_rad: float = 0.0  # initial body pitch added to the ground's (positive nose down)
+    init_vx_m_s: float = 0.0  # initial forward velocity of the whole robot
+    lock_spine: bool = False  # rigid spine: q2..q4 locked at the equilibrium arch by fixed constraints
+    gravity_m_s2: float = P.GRAVITY_M_S2
 
 
 @dataclass
@@ -121,7 +126,7 @@ class QuadrupedWorld:
         self.client = pb.connect(pb.DIRECT)
         c = self.client
         pb.resetSimulation(physicsClientId=c)
-        pb.setGravity(0, 0, -P.GRAVITY_M_S2, physicsClientId=c)
+        pb.setGravity(0, 0, -cfg.gravity_m_s2, physicsClientId=c)
         pb.setTimeStep(cfg.dt_s, physicsClientId=c)
         pb.setPhysicsEngineParameter(
             numSolverIterations=cfg.solver_iterations, deterministicOverlappingPairs=1, physicsClientId=c
@@ -154,6 +159,11 @@ class QuadrupedWorld:
             pb.changeDynamics(
                 self.robot, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0, physicsClientId=c
             )
+            if cfg.mass_scale != 1.0:
+                info = pb.getDynamicsInfo(self.robot, link, physicsClientId=c)
+                pb.changeDynamics(self.robot, link, mass=info[0] * cfg.mass_scale,
+                                  localInertiaDiagonal=[v * cfg.mass_scale for v in info[2]],
+                                  physicsClientId=c)
         self.legs = self.meta["legs"]
         self.foot_links = {self.link_index[v["foot_link"]]: k for k, v in self.legs.items()}
         parent = {
@@ -187,7 +197,35 @@ class QuadrupedWorld:
         self.steps = 0
         self._tau = [0.0] * len(self.movable)
         self.physics_wall_s = 0.0  # wall time spent inside stepSimulation (for the co-simulation bench)
-        self.reset_stand()
+        self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
+        if cfg.init_vx_m_s:
+            pb.resetBaseVelocity(self.robot, [cfg.init_vx_m_s, 0, 0], [0, 0, 0], physicsClientId=c)
+            self.read()
+        self.spine_locks = self._lock_spine() if cfg.lock_spine else []
+
+    def _lock_spine(self) -> list[int]:
+        """Fixed constraints between consecutive spine links at their present relative poses: q2..q4 locked
+        (a rigid spine, not a stiff controller). Returns the constraint ids."""
+        c = self.client
+
+        def com_pose(link: int):
+            if link == -1:
+                return pb.getBasePositionAndOrientation(self.robot, physicsClientId=c)
+            st = pb.getLinkState(self.robot, link, computeForwardKinematics=1, physicsClientId=c)
+            return st[0], st[1]
+
+        ids = []
+        for j in self.spine_idx:
+            parent = pb.getJointInfo(self.robot, j, physicsClientId=c)[16]
+            pp, po = com_pose(parent)
+            cp, co = com_pose(j)
+            ip, io = pb.invertTransform(pp, po)
+            rel_p, rel_o = pb.multiplyTransforms(ip, io, cp, co)
+            uid = pb.createConstraint(self.robot, parent, self.robot, j, pb.JOINT_FIXED, [0, 0, 0],
+                                      rel_p, [0, 0, 0], rel_o, [0, 0, 0, 1], physicsClientId=c)
+            pb.changeConstraint(uid, maxForce=1e5, physicsClientId=c)
+            ids.append(uid)
+        return ids
 
     # ---- set-up ---------------------------------------------------------------------------------------
     def leg_ik(self, key: str, x: float, z: float) -> tuple[float, float]:

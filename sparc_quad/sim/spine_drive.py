@@ -1,5 +1,16 @@
-"""What drives the spine joints in the quadruped sim: the SPARC impedance controller (in process, fed by
-the emulated estimator's q1) or, for the rigid-spine baseline, a stiff joint PD holding the equilibrium."""
+"""What drives the spine joints in the quadruped sim, one class per spine variant of the stiffness study:
+
+- `impedance`: the SPARC impedance controller rendered by the motors (in process, fed by the emulated
+  estimator's q1); its torque is actuator work.
+- `passive`: an ideal spring-damper with the same K, D acting in task space (tau = J^T F on q2..q4, no
+  gravity or inertia compensation): a physical spring, so its torque is not actuator work.
+- `rigid`: the spine locked by pybullet constraints (the world does it); no torque here.
+- `rigid-impedance`: the impedance controller at K = 1e4 N/m; its holding torque is actuator work.
+
+Every drive has `step(q, dq, ddq1) -> tau`, `x`, `dx` (task pose, rate), `ok`, `name` and `actuated`
+(whether its torque is charged as actuator work). `ScheduledDrive` adds the authors' gain switch and a
+slower control rate (zero-order hold) to any drive that has `set_gains`.
+"""
 
 from __future__ import annotations
 
@@ -16,23 +27,23 @@ class SpineGains:
     d: tuple[float, float, float] = tuple(P.D_DEFAULT)  # d_x N*s/m, d_z N*s/m, d_theta N*m*s/rad
 
 
-class RigidSpine:
-    """Rigid-spine baseline: a joint PD stiff enough that the arch stays at equilibrium (no torque limit:
-    this is the hypothetical rigid robot, not the SPARC actuators)."""
+SPINE_VARIANTS = ("impedance", "passive", "rigid", "rigid-impedance")
+
+
+class LockedSpine:
+    """Rigid spine: the joints are locked by the world's constraints (`WorldConfig.lock_spine`); this
+    drive applies no torque and only reports the (constant) task pose."""
 
     name = "rigid"
+    actuated = False
 
-    def __init__(self, kp: float = 1000.0, kd: float = 2.0):
-        self.kp, self.kd = kp, kd
-        self.q_eq = [float(v) for v in P.Q_EQUILIBRIUM[1:]]
+    def __init__(self) -> None:
         self.tau = np.zeros(3)
         self.kinematics = TaskKinematics()
         self.x, self.dx = self.kinematics.x, self.kinematics.dx
         self.ok = True
 
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
-        for i in range(3):
-            self.tau[i] = self.kp * (self.q_eq[i] - q[i + 1]) - self.kd * dq[i + 1]
         self.kinematics.update(q, dq)
         return self.tau
 
@@ -52,10 +63,51 @@ class TaskKinematics:
         self.model.update_kinematics(self.data, np.asarray(q, dtype=float), np.asarray(dq, dtype=float))
 
 
+class PassiveSpine:
+    """An ideal spring-damper between the bodies: F = K (x_d - x) - D dx in task space, tau = J^T F.
+
+    Nothing else (no gravity, inertia or friction compensation): what a physical spring of the same K, D
+    would apply. `energy_j` is the spring's stored energy 1/2 e^T K e.
+    """
+
+    name = "passive"
+    actuated = False
+
+    def __init__(self, gains: SpineGains, x_d: tuple[float, float, float] | None = None) -> None:
+        self.kinematics = TaskKinematics()
+        self.x, self.dx = self.kinematics.x, self.kinematics.dx
+        self.K = np.array(gains.k, dtype=float)
+        self.D = np.array(gains.d, dtype=float)
+        self.x_d = np.array(P.X_EQUILIBRIUM if x_d is None else x_d, dtype=float)
+        self.tau = np.zeros(3)
+        self.err = np.zeros(3)
+        self.energy_j = 0.0
+        self.ok = True
+
+    def set_gains(self, k=None, d=None, x_d=None) -> None:
+        if k is not None:
+            self.K[:] = k
+        if d is not None:
+            self.D[:] = d
+        if x_d is not None:
+            self.x_d[:] = x_d
+
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+        self.kinematics.update(q, dq)
+        e = self.err
+        np.subtract(self.x_d, self.x, out=e)
+        e[2] = (e[2] + np.pi) % (2 * np.pi) - np.pi
+        f = self.K * e - self.D * self.dx
+        self.tau[:] = self.kinematics.data.J_act.T @ f
+        self.energy_j = 0.5 * float(e @ (self.K * e))
+        return self.tau
+
+
 class ImpedanceSpine:
     """The SPARC impedance controller (spine_module.control) driving the spine in process."""
 
     name = "impedance"
+    actuated = True
 
     def __init__(self, gains: SpineGains, friction: bool = False):
         from spine_module.control import ImpedanceController, StribeckFriction
@@ -71,6 +123,11 @@ class ImpedanceSpine:
         self.dx = np.zeros(3)
         self.ok = True
 
+    def set_gains(self, k=None, d=None, x_d=None) -> None:
+        self.ctrl.set_gains(k=k, d=d)
+        if x_d is not None:
+            self.ctrl.set_target(x_d=x_d)
+
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
         out = self.ctrl.step(q, dq, ddq1=ddq1)
         self.tau[:] = out.tau
@@ -80,8 +137,79 @@ class ImpedanceSpine:
         return self.tau
 
 
-def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = False):
-    """The drive a bound uses: rigid PD, else the SPARC impedance controller."""
-    if rigid:
-        return RigidSpine()
-    return ImpedanceSpine(gains, friction=friction)
+@dataclass(frozen=True)
+class SpineSchedule:
+    """The authors' spine schedule: `k0`, `d0` at target x `x_d0_m` until `switch_s`, then the run's gains
+    at `x_d1_m`."""
+
+    switch_s: float = P.AUTHORS_SPINE_SWITCH_S
+    k0: tuple[float, float, float] = tuple(P.AUTHORS_SPINE_K)
+    d0: tuple[float, float, float] = tuple(P.AUTHORS_SPINE_D_START)
+    x_d0_m: float = P.AUTHORS_X_D_START_M
+    x_d1_m: float = P.AUTHORS_X_D_RUN_M
+
+
+class ScheduledDrive:
+    """Wraps a drive: gain/target switch at a time (optional) and a control rate below the sim's
+    (the torque is held between updates, as a 200 Hz controller's would be)."""
+
+    def __init__(self, drive, gains: SpineGains, schedule: SpineSchedule | None, hold_steps: int,
+                 dt_s: float) -> None:
+        self.drive, self.gains, self.schedule = drive, gains, schedule
+        self.hold = max(1, int(hold_steps))
+        self.dt = dt_s
+        self.name, self.actuated = drive.name, drive.actuated
+        self.tau = np.zeros(3)
+        self._k = 0
+        self._switched = schedule is None
+        if schedule is not None:
+            drive.set_gains(k=schedule.k0, d=schedule.d0, x_d=(schedule.x_d0_m, 0.0, 0.0))
+
+    @property
+    def x(self):
+        return self.drive.x
+
+    @property
+    def dx(self):
+        return self.drive.dx
+
+    @property
+    def ok(self) -> bool:
+        return self.drive.ok
+
+    @property
+    def energy_j(self) -> float:
+        return getattr(self.drive, "energy_j", 0.0)
+
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+        t = self._k * self.dt
+        if not self._switched and t >= self.schedule.switch_s:
+            self.drive.set_gains(k=self.gains.k, d=self.gains.d, x_d=(self.schedule.x_d1_m, 0.0, 0.0))
+            self._switched = True
+        if self._k % self.hold == 0:
+            self.tau[:] = self.drive.step(q, dq, ddq1)
+        self._k += 1
+        return self.tau
+
+
+def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = False,
+                     variant: str | None = None, schedule: SpineSchedule | None = None,
+                     rate_hz: float | None = None, dt_s: float = P.CONTROL_PERIOD_S):
+    """The drive a bound uses. `variant` is one of SPINE_VARIANTS (`rigid=True` means "rigid").
+    `schedule` applies to the impedance and passive springs, `rate_hz` (a controller rate below 1/dt_s)
+    to the motor-rendered impedance only: a physical spring acts continuously."""
+    variant = "rigid" if rigid else (variant or "impedance")
+    if variant not in SPINE_VARIANTS:
+        raise ValueError(f"spine variant must be one of {', '.join(SPINE_VARIANTS)}, got {variant!r}")
+    if variant == "rigid":
+        return LockedSpine()
+    if variant == "rigid-impedance":
+        stiff = SpineGains(k=tuple(P.K_RIGID_IMPEDANCE), d=tuple(P.D_RIGID_IMPEDANCE))
+        drive = ImpedanceSpine(stiff, friction=friction)
+        drive.name = "rigid-impedance"
+        return drive
+    drive = PassiveSpine(gains) if variant == "passive" else ImpedanceSpine(gains, friction=friction)
+    hold = 1 if not rate_hz or variant == "passive" else max(1, round(1.0 / (rate_hz * dt_s)))
+    if schedule is None and hold == 1:
+        return drive
+    return ScheduledDrive(drive, gains, schedule, hold, dt_s)

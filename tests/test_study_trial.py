@@ -1,0 +1,167 @@
+"""The study's trial function: spine variants, gait families, metrics, seeds (issue 13; issue 10 item 12)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from sparc_quad.sim import gait_metrics as GM
+from sparc_quad.sim.bound_run import COLUMNS, BoundConfig, run_bound
+from sparc_quad.sim.quadruped_world import WorldConfig
+from sparc_quad.study.trial import run_trial
+from spine_module import params as P
+
+HEADLINE = [f"cot_{c}_{g}" for c in GM.COTS for g in GM.GROUPS] + [
+    "cot_pos", "cot_abs", "cot_net", "cot_elec", "mean_speed_m_s", "stride_length_m", "stride_frequency_hz",
+    "duty_mean", "flight_time_s", "spine_x_amplitude_m", "spine_theta_amplitude_rad", "spine_x_dominant_hz",
+    "spine_x_dominant_over_gait", "spine_work_per_stride_j", "peak_leg_torque_nm", "leg_saturation_share",
+    "peak_spine_torque_nm", "spine_saturation_share", "spine_torque_rms_nm", "fell", "fall_time_s",
+    "fall_reason", "window_ok", "n_strides", "seed_mass_scale", "seed_latency_steps",
+]
+
+
+@pytest.mark.parametrize(
+    "gait,spine",
+    [("raibert", "impedance"), ("raibert", "passive"), ("raibert", "rigid"), ("raibert", "rigid-impedance"),
+     ("sine", "impedance"), ("sine", "passive")],
+)
+def test_every_variant_runs_and_returns_every_metric(gait, spine):
+    m = run_trial({"gait": gait, "spine": spine, "duration": 1.5, "seed": 0, "settle": 0.2})
+    missing = [k for k in HEADLINE if k not in m]
+    assert not missing, missing
+    assert isinstance(m["strides"], list) and m["strides"]
+    assert {"cot_pos", "speed_m_s", "frequency_hz", "spine_work_j"} <= set(m["strides"][0])
+    assert m["spine"] == spine and m["gait"] == gait
+    if spine in ("passive", "rigid"):  # not an actuator: the spine costs nothing
+        assert m["cot_pos_spine"] == 0.0 and m["cot_pos"] == m["cot_pos_legs"]
+    else:
+        assert m["cot_pos_spine"] > 0.0
+
+
+def test_passive_spine_does_no_net_positive_work():
+    m = run_trial({"gait": "raibert", "spine": "passive", "duration": 2.0, "settle": 0.2})
+    # the spring-damper's work on the joints never exceeds the energy its spring released
+    assert m["spine_work_plus_spring_energy_change_j"] < 1e-3
+    for s in m["strides"]:
+        assert s["spine_work_plus_spring_energy_change_j"] < 1e-3
+    # the motor-rendered impedance of the same gains is not passive (it puts energy in)
+    imp = run_trial({"gait": "raibert", "spine": "impedance", "duration": 2.0, "settle": 0.2})
+    assert imp["spine_work_plus_spring_energy_change_j"] > 0.0
+
+
+def test_locked_rigid_spine_does_not_move():
+    r = run_bound(BoundConfig(duration_s=1.5, spine_variant="rigid", settle_s=0.2))
+    assert not r.metrics["fell"]
+    q = r.series[:, [COLUMNS.index(c) for c in ("q2", "q3", "q4")]]
+    assert np.abs(q - P.Q_EQUILIBRIUM[1:]).max() < 1e-4
+    assert not r.column("tau2").any()  # no actuator holds it
+
+
+def _synthetic_series(n: int, dt: float, speed: float, freq: float) -> np.ndarray:
+    s = np.zeros((n, len(COLUMNS)))
+    t = np.arange(n) * dt
+    col = {c: k for k, c in enumerate(COLUMNS)}
+    s[:, col["t"]] = t
+    s[:, col["x"]] = speed * t
+    s[:, col["gait_phase"]] = (t * freq) % 1.0
+    s[:, col["gait_frequency_hz"]] = freq
+    s[:, col["tau_HL_hfe"]] = 2.0  # constant 2 N*m
+    s[:, col["dq_HL_hfe"]] = np.sin(2 * np.pi * freq * t)  # P = 2 sin: +, - halves
+    s[:, col["tau2"]] = 1.0
+    s[:, col["dq2"]] = 0.5  # spine P = 0.5 W always positive
+    return s
+
+
+def test_metrics_on_a_hand_built_power_trace():
+    dt, speed, freq, dur = 1e-3, 0.5, 2.0, 3.0
+    n = round(dur / dt)
+    s = _synthetic_series(n, dt, speed, freq)
+    cfg = SimpleNamespace(world=WorldConfig())
+    mass, g = 2.0, P.GRAVITY_M_S2
+    m = GM.study_metrics(s, cfg, mass, actuated=True, t_start=1.0)
+    a = round(1.0 / dt)
+    dist = speed * (n - 1 - a) * dt
+    # legs: 2 sin(w t): positive part integrates to 2 * (1/pi f)... per period 2 * 2/(2 pi f)
+    t = np.arange(a, n) * dt
+    p_leg = 2.0 * np.sin(2 * np.pi * freq * t)
+    e_pos = np.clip(p_leg, 0, None).sum() * dt
+    assert e_pos == pytest.approx(2.0 * 2 * freq * 2.0 / (2 * np.pi * freq), rel=2e-3)  # 2 s of 2 Hz
+    assert m["cot_pos_legs"] == pytest.approx(e_pos / (mass * g * dist), rel=1e-9)
+    assert m["cot_abs_legs"] == pytest.approx(np.abs(p_leg).sum() * dt / (mass * g * dist), rel=1e-9)
+    assert m["cot_net_legs"] == pytest.approx(p_leg.sum() * dt / (mass * g * dist), abs=1e-6)
+    c_leg = P.SOLO12_WINDING.loss_w_per_nm2
+    e_el = np.clip(p_leg + c_leg * 4.0, 0, None).sum() * dt
+    assert m["cot_elec_legs"] == pytest.approx(e_el / (mass * g * dist), rel=1e-9)
+    e_sp = 0.5 * 2.0  # 0.5 W for 2 s
+    assert m["cot_pos_spine"] == pytest.approx(e_sp / (mass * g * dist), rel=1e-3)
+    assert m["cot_pos"] == pytest.approx(m["cot_pos_legs"] + m["cot_pos_spine"], rel=1e-12)
+    assert m["n_strides"] == 3 and m["window_ok"]  # 2 Hz over 2 s: 4 wraps -> 3 complete strides
+    assert m["stride_frequency_hz"] == pytest.approx(2.0, rel=1e-3)
+    assert m["stride_length_m"] == pytest.approx(speed / freq, rel=2e-3)
+    st = m["strides"][0]
+    assert st["spine_work_j"] == pytest.approx(0.5 * 0.5, rel=1e-3)  # one 0.5 s stride at 0.5 W
+    # not an actuator: the same trace costs nothing on the spine, its work is still reported
+    passive = GM.study_metrics(s, cfg, mass, actuated=False, t_start=1.0)
+    assert passive["cot_pos_spine"] == 0.0 and passive["spine_work_j"] == pytest.approx(m["spine_work_j"])
+
+
+def test_seeds_change_the_trial():
+    cot = [run_trial({"gait": "raibert", "duration": 2.0, "seed": s, "settle": 0.2})["cot_pos"]
+           for s in (0, 1, 2)]
+    assert len({round(c, 4) for c in cot}) == 3, cot
+    a = run_trial({"gait": "raibert", "duration": 1.0, "seed": 3, "settle": 0.2})
+    b = run_trial({"gait": "raibert", "duration": 1.0, "seed": 3, "settle": 0.2})
+    assert a["cot_pos"] == b["cot_pos"]  # deterministic per seed
+
+
+def test_short_window_is_flagged():
+    with pytest.warns(RuntimeWarning, match="complete strides"):
+        m = run_bound(BoundConfig(duration_s=0.1)).metrics
+    assert m["window_ok"] is False and "strides" in m["warning"]
+
+
+def test_fall_reason_keeps_the_first_fall():
+    cfg = BoundConfig(duration_s=0.6, world=WorldConfig(init_pitch_rad=1.2), stop_on_fall=True)
+    with pytest.warns(RuntimeWarning):
+        first = run_bound(cfg)
+        on = run_bound(replace(cfg, stop_on_fall=False))
+    assert first.metrics["fell"] and first.metrics["fall_reason"] is not None
+    assert len(on.series) > len(first.series)  # it ran on after the fall ...
+    assert on.metrics["fell"] and on.metrics["fall_reason"] == first.metrics["fall_reason"]  # ... kept it
+    assert on.metrics["fall_time_s"] == first.metrics["fall_time_s"]
+
+
+def test_fall_reason_is_not_overwritten_by_later_steps(monkeypatch):
+    from sparc_quad.sim import bound_run
+
+    def scripted(world, pitch_front):  # falls at 5 ms, looks fine, then "falls" differently
+        k = world.steps
+        return "first" if k == 5 else ("later" if k > 100 else None)
+
+    monkeypatch.setattr(bound_run, "fall_reason", scripted)
+    with pytest.warns(RuntimeWarning):
+        m = run_bound(BoundConfig(duration_s=0.3, stop_on_fall=False)).metrics
+    assert m["fell"] and m["fall_reason"] == "first" and m["fall_time_s"] == pytest.approx(0.005)
+
+
+def test_bad_config_is_named():
+    with pytest.raises(ValueError, match="spine"):
+        run_trial({"spine": "wobbly"})
+    with pytest.raises(ValueError, match="bogus"):
+        run_trial({"gait": "raibert", "bogus": 1})
+    with pytest.raises(ValueError, match="kx"):
+        run_trial({"kx": -5})
+    with pytest.raises(ValueError, match="step_length"):
+        run_trial({"gait": "raibert", "step_length": 0.1})
+
+
+def test_natural_frequency_grows_as_root_k():
+    from sparc_quad.sim.spine_resonance import spine_natural_frequency_hz
+
+    lo, hi = spine_natural_frequency_hz(400.0), spine_natural_frequency_hz(1600.0)
+    assert math.isfinite(lo) and lo > 0
+    assert hi / lo == pytest.approx(2.0, rel=0.2)
