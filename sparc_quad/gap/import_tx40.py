@@ -22,14 +22,14 @@ with T = diag(32, 32, 45, -48, 45, 32) plus T[5, 4] = 32 (motor 6 turns with q5 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from scipy import signal
+
+from sparc_quad.gap.import_util import LogImportError, decimate, find_source, read_table, write_trial_csv
 
 SOURCE_REPO = "https://github.com/thanhndv212/figaroh-plus"
 SOURCE_COMMIT = "c3b5172"  # figaroh-plus main when imported; the data files date from dd270af (2023-01-23)
@@ -43,10 +43,6 @@ GEAR_RATIOS = (32.0, 32.0, 45.0, -48.0, 45.0, 32.0)  # T40X_config.yaml `N` (joi
 # q_joint = T^-1 q_motor + JOINT_OFFSETS_RAD. The logged torques are motor torques in N*m (FIGAROH multiplies
 # them by the gear ratios only), so the sidecar gives no torque constants.
 JOINT_OFFSETS_RAD = (0.0, -np.pi / 2, np.pi / 2, 0.0, 0.0, 0.0)
-
-
-class TX40ImportError(ValueError):
-    """Bad source data; the message names the file."""
 
 
 def transmission_matrix() -> np.ndarray:
@@ -64,37 +60,13 @@ def transmission() -> dict:
             "zero_offsets_rad": (-T @ np.array(JOINT_OFFSETS_RAD)).tolist()}
 
 
-def _read(path: Path) -> np.ndarray:
-    """One source CSV (header `Joint_1..Joint_6`), plain or compressed (.gz/.xz, numpy opens both)."""
-    if not path.exists():
-        raise TX40ImportError(f"{path}: file not found")
-    try:
-        arr = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    except ValueError as exc:
-        raise TX40ImportError(f"{path}: not a 6-column numeric CSV: {exc}") from exc
-    if arr.shape[1] != 6 or arr.shape[0] < 16:
-        raise TX40ImportError(f"{path}: expected >= 16 rows x 6 columns, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        row = int(np.argwhere(~np.isfinite(arr))[0, 0]) + 1
-        raise TX40ImportError(f"{path}: non-finite value in data row {row}")
-    return arr
-
-
-def find_source(directory: Path, stem: str) -> Path:
-    for suffix in ("", ".xz", ".gz"):
-        p = directory / (stem + suffix)
-        if p.exists():
-            return p
-    return directory / stem
-
-
 def load_source(directory: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t s, q_motor rad, motor torque as logged) for the whole log."""
     directory = Path(directory)
-    qm = _read(find_source(directory, SOURCE_FILES["position"]))
-    tm = _read(find_source(directory, SOURCE_FILES["torque"]))
+    qm = read_table(find_source(directory, SOURCE_FILES["position"]), 6)
+    tm = read_table(find_source(directory, SOURCE_FILES["torque"]), 6)
     if qm.shape != tm.shape:
-        raise TX40ImportError(f"{directory}: position log {qm.shape} and torque log {tm.shape} differ")
+        raise LogImportError(f"{directory}: position log {qm.shape} and torque log {tm.shape} differ")
     t = np.arange(qm.shape[0]) / RATE_HZ
     return t, qm, tm
 
@@ -117,27 +89,9 @@ def sidecar(urdf_rel: str, rate_hz: float, description: str) -> dict:
 
 
 def write_trial(path: Path, t: np.ndarray, q_motor: np.ndarray, value: np.ndarray, meta: dict) -> Path:
-    """CSV columns: t (s), q_<motor> (rad, motor side), tau_meas_<motor> (N*m, motor side); sidecar beside.
-
-    Written to a temporary name and renamed, so a failure leaves no half-written trial."""
+    """CSV columns: t (s), q_<motor> (rad, motor side), tau_meas_<motor> (N*m, motor side); sidecar beside."""
     header = ["t", *(f"q_{m}" for m in MOTORS), *(f"tau_meas_{m}" for m in MOTORS)]
-    arr = np.column_stack([t, q_motor, value])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp_csv, tmp_json = path.with_suffix(".csv.part"), path.with_suffix(".json.part")
-    np.savetxt(tmp_csv, arr, delimiter=",", header=",".join(header), comments="", fmt="%.8g")
-    tmp_json.write_text(json.dumps(meta, indent=2) + "\n")
-    os.replace(tmp_csv, path)
-    os.replace(tmp_json, path.with_suffix(".json"))
-    return path
-
-
-def decimate(x: np.ndarray, factor: int) -> np.ndarray:
-    """Anti-aliased decimation with a linear-phase FIR (scipy.signal.resample_poly: Kaiser window, no delay,
-    unit DC gain; ends padded with a fitted line). Not `signal.decimate`'s IIR default: its Chebyshev-I
-    filter run forward-backward has a DC gain of 0.989, a 1.1 % error on every position."""
-    if factor == 1:
-        return x
-    return signal.resample_poly(x, 1, factor, axis=0, padtype="line")
+    return write_trial_csv(path, header, np.column_stack([t, q_motor, value]), meta)
 
 
 def convert(source: str | Path, out: str | Path,
@@ -147,20 +101,20 @@ def convert(source: str | Path, out: str | Path,
     out = Path(out)
     urdf = Path(urdf) if urdf is not None else Path(source) / ".." / URDF_NAME
     if not urdf.exists():
-        raise TX40ImportError(f"{urdf}: URDF not found (pass --urdf)")
+        raise LogImportError(f"{urdf}: URDF not found (pass --urdf)")
     t, qm, tm = load_source(source)
     if factor < 1:
-        raise TX40ImportError(f"decimation factor must be >= 1, got {factor}")
+        raise LogImportError(f"decimation factor must be >= 1, got {factor}")
     qm, tm = decimate(qm, factor), decimate(tm, factor)
     t = t[::factor]
     rate = RATE_HZ / factor
     paths = []
     for i, (a, b) in enumerate(windows_s):
         if not (0.0 <= a < b):
-            raise TX40ImportError(f"window {a}:{b} s: need 0 <= start < end")
+            raise LogImportError(f"window {a}:{b} s: need 0 <= start < end")
         sel = (t >= a - 1e-12) & (t < b - 1e-12)
         if sel.sum() < 16:
-            raise TX40ImportError(f"window {a}:{b} s holds {sel.sum()} samples "
+            raise LogImportError(f"window {a}:{b} s holds {sel.sum()} samples "
                                   f"of a {t[-1] + 1 / rate:.3f} s log")
         name = names[i] if names else f"tx40_{i:02d}"
         path = out / f"{name}.csv"
@@ -196,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     try:
         paths = convert(args.source, args.out, args.window or [(0.0, 9.0)], args.decimate, args.urdf)
-    except TX40ImportError as exc:
+    except LogImportError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     for path in paths:
