@@ -64,8 +64,8 @@ def test_case_is_what_the_issue_asks_for(motor_side_case, caplog):
     for j in sa.JOINTS[:5]:
         for n in ("coulomb_friction", "viscous_friction", "rotor_inertia"):
             assert (n, j) in names
-    coupling = [e for e in hidden if e["name"] == "transmission_coupling"]
-    assert len(coupling) == 1 and coupling[0]["joints"] == sa.JOINTS[4:6]
+    coupling = [e for e in hidden if e["name"].startswith("coupled_")]
+    assert len(coupling) == 3 and all(e["params"]["direction"] == [0, 0, 0, 0, 1, 1] for e in coupling)
     scales = [e["params"]["scale"] for e in hidden if e["name"] == "link_inertia_error"]
     assert len(scales) == 5 and all(0.0999 <= abs(s - 1) <= 0.3001 for s in scales)
     assert max(e["params"].get("tau_c_nm", 0) for e in hidden) >= 5.0  # several N m on the big joints

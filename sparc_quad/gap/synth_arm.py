@@ -250,7 +250,8 @@ def draw_link_errors(robot: Robot, case: ArmCase, rng: np.random.Generator) -> d
 
 
 def truth(robot: Robot, case: ArmCase) -> dict:
-    """Every hidden effect, named as the plant-effects library names them where it has the effect."""
+    """Every hidden effect, named as the plant-effects library names them (motor 6 of a coupled wrist as
+    coupled_rotor_inertia / coupled_coulomb_friction / coupled_viscous_friction along q5 + q6)."""
     hidden = []
     motors_alone = range(6) if not case.coupled_wrist else range(5)
     for i in motors_alone:
@@ -260,11 +261,14 @@ def truth(robot: Robot, case: ArmCase) -> dict:
                     "params": {"b_nm_s_rad": case.viscous_nm_s_rad[i]}},
                    {"name": "rotor_inertia", "joint": j,
                     "params": {"inertia_kg_m2": case.rotor_inertia_kg_m2[i]}}]
-    if case.coupled_wrist:
-        hidden.append({"name": "transmission_coupling", "joints": JOINTS[4:6], "motor": MOTORS[5],
-                       "velocity": f"dq_{JOINTS[4]} + dq_{JOINTS[5]}",
-                       "params": {"inertia_kg_m2": case.rotor_inertia_kg_m2[5],
-                                  "tau_c_nm": case.coulomb_nm[5], "b_nm_s_rad": case.viscous_nm_s_rad[5]}})
+    if case.coupled_wrist:  # motor 6, listed with wrist_3_joint, turns with s = q5 + q6
+        u = [0.0, 0.0, 0.0, 0.0, 1.0, 1.0]
+        hidden += [{"name": "coupled_rotor_inertia", "joint": JOINTS[5],
+                    "params": {"direction": u, "inertia_kg_m2": case.rotor_inertia_kg_m2[5]}},
+                   {"name": "coupled_coulomb_friction", "joint": JOINTS[5],
+                    "params": {"direction": u, "tau_c_nm": case.coulomb_nm[5]}},
+                   {"name": "coupled_viscous_friction", "joint": JOINTS[5],
+                    "params": {"direction": u, "b_nm_s_rad": case.viscous_nm_s_rad[5]}}]
     for link, s in case.link_scale.items():
         jid = _joint_of_link(robot.model, link)
         mass = robot.model.inertias[jid].mass
@@ -309,27 +313,27 @@ def synth_arm(out: str | Path, *, seed: int = 0, n_trials: int = 3, periods: int
 def joint_effect_torque(truth_: dict, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
                         dt: float) -> np.ndarray:
     """Joint torque of the named hidden effects alone (no rigid bodies), from truth.json: what a test adds
-    to the URDF's inverse dynamics. Friction at the step's linearised midpoint velocity, as `step`."""
+    to the URDF's inverse dynamics. Each motor acts along its direction u (a unit joint vector, or
+    `direction` of a coupled effect) with velocity s = u . dq; friction at the step's linearised midpoint
+    velocity, as `ArmPlant.step`."""
     eps = truth_["friction_smoothing_rad_s"]
-    idx = {j: i for i, j in enumerate(JOINTS)}
-    out = np.zeros_like(q)
-
-    def friction(v, tau_c, b):
-        th = np.tanh(v / eps)
-        return -(tau_c * th + b * v), -(tau_c * (1 - th**2) / eps + b)
-
-    groups: dict[tuple[int, ...], dict] = {}
+    keys = {"rotor_inertia": "inertia_kg_m2", "coulomb_friction": "tau_c_nm",
+            "viscous_friction": "b_nm_s_rad"}
+    motors: dict[tuple[float, ...], dict] = {}
     for e in truth_["hidden"]:
-        if e["name"] in ("coulomb_friction", "viscous_friction", "rotor_inertia"):
-            groups.setdefault((idx[e["joint"]],), {}).update(e["params"])
-        elif e["name"] == "transmission_coupling":
-            groups.setdefault(tuple(idx[j] for j in e["joints"]), {}).update(e["params"])
-    for js, p in groups.items():
-        v, a = dq[:, list(js)].sum(1), ddq[:, list(js)].sum(1)
-        f, slope = friction(v, p.get("tau_c_nm", 0.0), p.get("b_nm_s_rad", 0.0))
-        tau = p.get("inertia_kg_m2", 0.0) * a - f - 0.5 * dt * slope * a
-        for j in js:
-            out[:, j] += tau
+        name = e["name"].removeprefix("coupled_")
+        if name not in keys:
+            continue
+        u = e["params"].get("direction") or list(np.eye(len(JOINTS))[JOINTS.index(e["joint"])])
+        motors.setdefault(tuple(u), {})[keys[name]] = e["params"][keys[name]]
+    out = np.zeros_like(q)
+    for u, p in motors.items():
+        u = np.asarray(u)
+        v, a = dq @ u, ddq @ u
+        tau_c, b = p.get("tau_c_nm", 0.0), p.get("b_nm_s_rad", 0.0)
+        th = np.tanh(v / eps)
+        f, slope = -(tau_c * th + b * v), -(tau_c * (1 - th**2) / eps + b)
+        out += (p.get("inertia_kg_m2", 0.0) * a - f - 0.5 * dt * slope * a)[:, None] * u
     return out
 
 
