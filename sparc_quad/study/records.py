@@ -33,6 +33,7 @@ NOT_TRIAL_CODE = (
     "sparc_quad/study/executors.py",
     "sparc_quad/study/stats.py",
     "sparc_quad/study/report.py",
+    "sparc_quad/study/claims.py",
     "sparc_quad/study/runner.py",
 )
 RECORD_VERSION = 1
