@@ -38,6 +38,11 @@ def _ci(mean, lo, hi, nd=1, unit="") -> str:
     return f"{mean:.{nd}f}{unit} [{lo:.{nd}f}, {hi:.{nd}f}]"
 
 
+def _speed_txt(row: dict) -> str:
+    v = row.get("speed_m_s")
+    return "–" if v is None else f"{v:.2f} m/s"
+
+
 def _flat_panels(panels: list[dict]) -> list[dict]:
     return [p for p in panels if abs(float(p["config"].get("slope", 0.0))) < 1e-9]
 
@@ -110,7 +115,7 @@ def evaluate(analysis: dict) -> list[dict]:
                     "near_best_k": near,
                     "verdict": v,
                     "finding": f"{_speed(ref):g} m/s: best k_x {best['k']:g} N/m (d_x {best['d']:g}), "
-                    f"CoT_pos {_ci(best['mean'], best['lo'], best['hi'], 2)}; "
+                    f"CoT_pos {_ci(best['mean'], best['lo'], best['hi'], 2)} at {_speed_txt(best)}; "
                     f"k within its CI: {', '.join(f'{k:g}' for k in near)}",
                 }
             )
@@ -142,7 +147,9 @@ def evaluate(analysis: dict) -> list[dict]:
                 b = om["best"]
                 d, lo, hi = b["diff_pct"], b["diff_lo"], b["diff_hi"]
                 nums[metric] = {"k": b["k"], "d": b["d"], "diff_pct": d, "lo": lo, "hi": hi}
-                parts.append(f"{label} {_ci(d, lo, hi, 0, ' %')} at ({b['k']:g}, {b['d']:g})")
+                parts.append(
+                    f"{label} {_ci(d, lo, hi, 0, ' %')} at ({b['k']:g}, {b['d']:g}; {_speed_txt(b)})"
+                )
                 if lo is None or hi is None:
                     verdicts.append("no CI")
                 elif hi < 0 and lo <= C3_SAVING_PCT:

@@ -327,6 +327,9 @@ def plot_heatmap(panel: dict, metric: str, cells: list[Cell], path: Path) -> Pat
             if c.diff_pct is not None:
                 d = c.diff_pct
                 lines.append(f"{d.value:+.0f}% [{_fmt(d.lo, 0)},{_fmt(d.hi, 0)}]")
+            v = c.extras.get("speed_m_s")
+            if v is not None:
+                lines.append(f"{v:.2f} m/s")
             if c.n_fell:
                 lines.append(f"fell {c.n_fell}/{c.n}")
             dark = c.diff_pct is not None and abs(c.diff_pct.value) > 0.6 * lim
@@ -344,12 +347,13 @@ def plot_heatmap(panel: dict, metric: str, cells: list[Cell], path: Path) -> Pat
         cb = fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9, extend="both")
         cb.set_label(f"% against {panel['baseline'] or 'rigid'} (blue = cheaper)")
     btxt = (
-        f"{panel['baseline']} {_fmt(base.est.value)} [{_fmt(base.est.lo)}, {_fmt(base.est.hi)}]"
+        f"{panel['baseline']} {_fmt(base.est.value)} [{_fmt(base.est.lo)}, {_fmt(base.est.hi)}] at "
+        f"{_fmt(base.extras.get('speed_m_s'))} m/s"
         if base and base.est
         else "no rigid baseline"
     )
     fig.suptitle(
-        f"{panel['panel']}: {_label(metric)}\n{btxt}\ncell: mean, % vs rigid [95 % CI]; "
+        f"{panel['panel']}: {_label(metric)}\n{btxt}\ncell: mean, % vs rigid [95 % CI], mean speed; "
         "hatched: a trial fell or the CI contains 0",
         fontsize=9,
     )
