@@ -28,39 +28,10 @@ from sparc_quad.sim.spine_drive import SPINE_VARIANTS, SpineGains, SpineSchedule
 from spine_module import params as P
 
 GAITS = ("sine", "raibert", "raibert-opt")
-_COMMON = {
-    "gait",
-    "spine",
-    "duration",
-    "seed",
-    "slope",
-    "kx",
-    "kz",
-    "kth",
-    "ktheta",
-    "dx",
-    "dz",
-    "dth",
-    "dtheta",
-    "frequency",
-    "step_height",
-    "settle",
-    "friction_comp",
-    "host",
-}
-_RAIBERT = {
-    "speed",
-    "duty",
-    "stride",
-    "body_kp",
-    "body_kd",
-    "phase_offset",
-    "raibert_gain",
-    "popsize",
-    "iterations",
-    "opt_duration",
-    "opt_seed",
-}
+_COMMON = {"gait", "spine", "duration", "seed", "slope", "kx", "kz", "kth", "ktheta", "dx", "dz", "dth",
+           "dtheta", "frequency", "step_height", "settle", "friction_comp", "host"}
+_RAIBERT = {"speed", "duty", "stride", "body_kp", "body_kd", "phase_offset", "raibert_gain",
+            "popsize", "iterations", "opt_duration", "opt_seed"}
 _SINE = {"step_length", "adapt_frequency", "spine_rate_hz", "schedule", "hip_depth", "direction", "speed"}
 
 
@@ -98,16 +69,10 @@ def check_config(config: dict) -> None:
 
 
 def spine_gains(config: dict, default_k, default_d) -> SpineGains:
-    k = (
-        _num(config, "kx", default_k[0]),
-        _num(config, "kz", default_k[1]),
-        _num(config, "kth", _num(config, "ktheta", default_k[2])),
-    )
-    d = (
-        _num(config, "dx", default_d[0]),
-        _num(config, "dz", default_d[1]),
-        _num(config, "dth", _num(config, "dtheta", default_d[2])),
-    )
+    k = (_num(config, "kx", default_k[0]), _num(config, "kz", default_k[1]),
+         _num(config, "kth", _num(config, "ktheta", default_k[2])))
+    d = (_num(config, "dx", default_d[0]), _num(config, "dz", default_d[1]),
+         _num(config, "dth", _num(config, "dtheta", default_d[2])))
     return SpineGains(k=k, d=d)
 
 
@@ -118,62 +83,40 @@ def bound_config(config: dict) -> BoundConfig:
     seed = int(config.get("seed", 0))
     pert = perturbation(seed)
     duration = _num(config, "duration", 10.0)
-    world = WorldConfig(
-        host=config.get("host", "solo12"),
-        slope_rad=_num(config, "slope", 0.0),
-        seed=seed,
-        friction=pert.friction,
-        mass_scale=pert.mass_scale,
-        init_pitch_rad=pert.init_pitch_rad,
-        init_vx_m_s=pert.init_vx_m_s,
-    )
-    common = dict(
-        duration_s=duration,
-        world=world,
-        spine_variant=config.get("spine", "impedance"),
-        friction_compensation=bool(config.get("friction_comp", False)),
-        stop_on_fall=False,
-        actuator_latency_steps=pert.latency_steps,
-        settle_s=_num(config, "settle", 1.0),
-    )
+    world = WorldConfig(host=config.get("host", "solo12"), slope_rad=_num(config, "slope", 0.0), seed=seed,
+                        friction=pert.friction, mass_scale=pert.mass_scale,
+                        init_pitch_rad=pert.init_pitch_rad, init_vx_m_s=pert.init_vx_m_s)
+    common = dict(duration_s=duration, world=world, spine_variant=config.get("spine", "impedance"),
+                  friction_compensation=bool(config.get("friction_comp", False)), stop_on_fall=False,
+                  actuator_latency_steps=pert.latency_steps, settle_s=_num(config, "settle", 1.0))
     if gait == "sine":
         d = SineBoundParams()
         f = _num(config, "frequency", d.frequency_hz)
         params = SineBoundParams(
-            frequency_hz=f,
-            step_length_m=_num(config, "step_length", d.step_length_m),
+            frequency_hz=f, step_length_m=_num(config, "step_length", d.step_length_m),
             step_height_m=_num(config, "step_height", d.step_height_m),
             hip_depth_m=_num(config, "hip_depth", d.hip_depth_m),
             direction=_num(config, "direction", d.direction),
             adapt_frequency=bool(config.get("adapt_frequency", False)),
-            start_phase_rad=2 * math.pi * pert.start_phase_cycles,
-        )
+            start_phase_rad=2 * math.pi * pert.start_phase_cycles)
         params.validate()
         world = replace(world, stand_height_m=params.hip_depth_m)
         schedule = SpineSchedule() if config.get("schedule", True) else None
-        return BoundConfig(
-            gait=params,
-            spine=spine_gains(config, P.AUTHORS_SPINE_K, P.AUTHORS_SPINE_D_RUN),
-            spine_schedule=schedule,
-            spine_rate_hz=_num(config, "spine_rate_hz", P.AUTHORS_SPINE_RATE_HZ),
-            **{**common, "world": world},
-        )
+        return BoundConfig(gait=params, spine=spine_gains(config, P.AUTHORS_SPINE_K, P.AUTHORS_SPINE_D_RUN),
+                           spine_schedule=schedule,
+                           spine_rate_hz=_num(config, "spine_rate_hz", P.AUTHORS_SPINE_RATE_HZ),
+                           **{**common, "world": world})
     d = BoundParams()
     f = _num(config, "frequency", d.frequency_hz)
     if f <= 0:
         raise ValueError("config 'frequency' must be > 0 Hz")
-    params = replace(
-        d,
-        frequency_hz=f,
-        speed_m_s=_num(config, "speed", d.speed_m_s),
-        step_height_m=_num(config, "step_height", d.step_height_m),
-        duty=_num(config, "duty", 0.0) if "duty" in config else None,
-        body_kp=_num(config, "body_kp", d.body_kp),
-        body_kd=_num(config, "body_kd", d.body_kd),
-        phase_offset=_num(config, "phase_offset", d.phase_offset),
-        raibert_gain_s=_num(config, "raibert_gain", d.raibert_gain_s),
-        start_s=d.start_s + pert.start_phase_cycles / f,
-    )
+    params = replace(d, frequency_hz=f, speed_m_s=_num(config, "speed", d.speed_m_s),
+                     step_height_m=_num(config, "step_height", d.step_height_m),
+                     duty=_num(config, "duty", 0.0) if "duty" in config else None,
+                     body_kp=_num(config, "body_kp", d.body_kp), body_kd=_num(config, "body_kd", d.body_kd),
+                     phase_offset=_num(config, "phase_offset", d.phase_offset),
+                     raibert_gain_s=_num(config, "raibert_gain", d.raibert_gain_s),
+                     start_s=d.start_s + pert.start_phase_cycles / f)
     if "stride" in config:
         params = params.with_stride(_num(config, "stride", 0.0))
     return BoundConfig(gait=params, spine=spine_gains(config, P.K_DEFAULT, P.D_DEFAULT), **common)
