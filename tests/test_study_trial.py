@@ -165,3 +165,32 @@ def test_natural_frequency_grows_as_root_k():
     lo, hi = spine_natural_frequency_hz(400.0), spine_natural_frequency_hz(1600.0)
     assert math.isfinite(lo) and lo > 0
     assert hi / lo == pytest.approx(2.0, rel=0.2)
+
+
+def test_raibert_opt_objective_penalises_falls_and_speed():
+    from sparc_quad.study.raibert_opt import objective
+
+    ok = {"cot_pos": 0.8, "fell": False, "mean_speed_m_s": 0.61}
+    assert objective(ok, 0.6, 4.0) == pytest.approx(0.8)
+    assert objective({**ok, "mean_speed_m_s": 0.7}, 0.6, 4.0) > 0.8 + 3.0  # 7 cm/s off target
+    assert objective({**ok, "fell": True, "fall_time_s": 1.0}, 0.6, 4.0) > 10.0
+    early = objective({**ok, "fell": True, "fall_time_s": 0.5}, 0.6, 4.0)
+    assert early > objective({**ok, "fell": True, "fall_time_s": 3.5}, 0.6, 4.0)
+
+
+@pytest.mark.filterwarnings("ignore:steady window")
+def test_raibert_opt_tunes_then_runs_and_a_tuned_gait_skips_the_search():
+    from sparc_quad.study.raibert_opt import SEARCH, optimise_cell
+
+    cfg = {"gait": "raibert-opt", "spine": "rigid", "duration": 1.0, "popsize": 2, "iterations": 1,
+           "opt_duration": 1.0, "settle": 0.2}
+    m = run_trial(cfg)
+    assert m["gait"] == "raibert-opt" and m["opt_evaluations"] == 2.0
+    for key, lo, hi in SEARCH:
+        assert lo <= m[f"opt_{key}"] <= hi
+    tuned = optimise_cell({**cfg, "seed": 5})  # same cell: cached, same answer
+    assert tuned["frequency"] == m["opt_frequency"]
+    again = run_trial({**cfg, "tuned": tuned})
+    assert again["cot_pos"] == m["cot_pos"]
+    with pytest.raises(ValueError, match="tuned"):
+        run_trial({**cfg, "tuned": {"wobble": 1.0}})

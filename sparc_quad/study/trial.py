@@ -31,7 +31,7 @@ GAITS = ("sine", "raibert", "raibert-opt")
 _COMMON = {"gait", "spine", "duration", "seed", "slope", "kx", "kz", "kth", "ktheta", "dx", "dz", "dth",
            "dtheta", "frequency", "step_height", "settle", "friction_comp", "host"}
 _RAIBERT = {"speed", "duty", "stride", "body_kp", "body_kd", "phase_offset", "raibert_gain",
-            "popsize", "iterations", "opt_duration", "opt_seed"}
+            "popsize", "iterations", "opt_duration", "opt_seed", "tuned"}
 _SINE = {"step_length", "adapt_frequency", "spine_rate_hz", "schedule", "hip_depth", "direction", "speed"}
 
 

@@ -1,0 +1,132 @@
+"""Gait family B ("raibert-opt"): the Raibert bound re-tuned for each spine cell with CMA-ES (`cma`).
+
+Why: a gait tuned for one spine (or none) favours that spine. Here each (spine variant, k, d, speed,
+slope) cell gets its own gait: CMA-ES searches frequency, duty, front/hind phase offset, step height and
+the stance attitude servo's gains (`body_kp`, `body_kd`, which push against spine flexion) to minimise
+CoT_pos, with a penalty when the trial falls or misses the target speed by more than 0.03 m/s. Stride
+length is emergent: the speed servo holds the target, so stride = speed / frequency.
+
+Budget: `popsize` x `iterations` evaluation trials of `opt_duration` s (seed `opt_seed`), then the
+reported trial at the config's own duration and seed with the best gait. Deterministic: CMA-ES is seeded,
+so the same cell gives the same gait in any process; `optimise_cell(config)` is what a study caches (by
+`cell_key(config)`), and a config carrying `tuned` (the dict it returns) skips the search.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from functools import lru_cache
+
+import numpy as np
+
+# (config key, lower, upper): the search box; CMA works on [0, 1]^n mapped into it
+SEARCH = (
+    ("frequency", 2.5, 5.0),  # Hz
+    ("duty", 0.3, 0.6),
+    ("phase_offset", 0.3, 0.7),  # front stance starts this fraction of a stride after the hind
+    ("step_height", 0.03, 0.10),  # m
+    ("body_kp", 0.0, 12.0),  # N*m/rad
+    ("body_kd", 0.0, 1.2),  # N*m*s/rad
+)
+SPEED_TOLERANCE_M_S = 0.03
+FALL_PENALTY = 10.0
+SPEED_PENALTY_PER_M_S = 50.0
+OPT_KEYS = ("popsize", "iterations", "opt_duration", "opt_seed", "tuned")
+_CELL_SKIP = ("seed", "duration", "tuned")
+
+
+def cell_key(config: dict) -> tuple:
+    """What the tuned gait depends on: everything but the seed, the duration and a supplied `tuned`."""
+    return tuple(sorted((k, v) for k, v in config.items() if k not in _CELL_SKIP))
+
+
+def _decode(u: np.ndarray) -> dict:
+    u = np.clip(u, 0.0, 1.0)
+    return {k: float(lo + (hi - lo) * x) for (k, lo, hi), x in zip(SEARCH, u, strict=True)}
+
+
+def objective(metrics: dict, target_speed: float, duration: float) -> float:
+    """CoT_pos, plus penalties: a fall (more the earlier), a mean speed off target by > 0.03 m/s."""
+    cot = metrics.get("cot_pos", float("nan"))
+    f = cot if isinstance(cot, float) and math.isfinite(cot) and cot > 0 else FALL_PENALTY
+    if metrics.get("fell"):
+        t = metrics.get("fall_time_s") or 0.0
+        f += FALL_PENALTY * (1.0 + (duration - t) / duration)
+    v = metrics.get("mean_speed_m_s", float("nan"))
+    err = abs(v - target_speed) if isinstance(v, float) and math.isfinite(v) else 1.0
+    if err > SPEED_TOLERANCE_M_S:
+        f += SPEED_PENALTY_PER_M_S * (err - SPEED_TOLERANCE_M_S)
+    return float(f)
+
+
+def _base(config: dict) -> dict:
+    from sparc_quad.study.trial import check_config
+
+    base = {k: v for k, v in config.items() if k not in OPT_KEYS}
+    base["gait"] = "raibert"
+    check_config(base)
+    return base
+
+
+def optimise_cell(config: dict) -> dict:
+    """The tuned gait parameters of this cell (a dict of `raibert` config keys) + search statistics."""
+    return dict(_optimise(cell_key(config)))
+
+
+@lru_cache(maxsize=32)
+def _optimise(key: tuple) -> tuple:
+    import cma
+
+    from sparc_quad.study.trial import run_trial
+
+    config = dict(key)
+    popsize = int(config.get("popsize", 6))
+    iterations = int(config.get("iterations", 5))
+    if popsize < 2 or iterations < 1:
+        raise ValueError(f"raibert-opt needs popsize >= 2 and iterations >= 1, got {popsize}, {iterations}")
+    duration = float(config.get("opt_duration", 4.0))
+    seed = int(config.get("opt_seed", 0))
+    base = _base(config)
+    target = float(base.get("speed", 0.6))
+    es = cma.CMAEvolutionStrategy(
+        [0.5] * len(SEARCH), 0.25,
+        {"popsize": popsize, "maxiter": iterations, "bounds": [0.0, 1.0], "seed": 13, "verbose": -9},
+    )
+    best_f, best_x, evals = math.inf, None, 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # short evaluation windows are expected
+        while not es.stop():
+            xs = es.ask()
+            fs = []
+            for x in xs:
+                m = run_trial({**base, **_decode(np.asarray(x)), "duration": duration, "seed": seed})
+                f = objective(m, target, duration)
+                evals += 1
+                fs.append(f)
+                if f < best_f:
+                    best_f, best_x = f, np.asarray(x)
+            es.tell(xs, fs)
+    tuned = _decode(best_x)
+    return tuple(sorted({**tuned, "_objective": best_f, "_evaluations": evals}.items()))
+
+
+def run_optimised_trial(config: dict) -> dict:
+    """Tune (or take `tuned`), then run the reported trial; its metrics + `opt_*` keys."""
+    from sparc_quad.study.trial import run_trial
+
+    tuned = config.get("tuned")
+    if tuned is None:
+        tuned = optimise_cell(config)
+    elif not isinstance(tuned, dict):
+        raise ValueError(f"config 'tuned' must be a dict of gait parameters, got {tuned!r}")
+    params = {k: v for k, v in tuned.items() if not k.startswith("_")}
+    bad = sorted(set(params) - {k for k, _, _ in SEARCH})
+    if bad:
+        raise ValueError(f"config 'tuned' has unknown key(s): {', '.join(bad)}")
+    base = _base(config)
+    m = run_trial({**base, **params})
+    m["gait"] = "raibert-opt"
+    for k, v in tuned.items():
+        m[f"opt{k}" if k.startswith("_") else f"opt_{k}"] = float(v)
+    return m
