@@ -5,12 +5,14 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 OUT ?= out/demo
 
-.PHONY: install demo test test-slow lint bench clean
+.PHONY: install demo test test-slow lint bench clean constraints
 
-$(STAMP): pyproject.toml
+# Everything (`.[all,dev]`), pinned by constraints.txt so a new release of a dependency cannot change the
+# test environment without a commit. The robot itself needs only `pip install .` (see README).
+$(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,study]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[all,dev]'
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -32,6 +34,12 @@ lint: install
 BENCHES := control_step lcm_loop can_loop gap cosim study_scaling
 bench: install
 	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json || exit 1; done
+
+# re-pin the test environment to what the working venv has (after changing dependencies in pyproject)
+constraints: install
+	$(BIN)/python -m pip install --quiet -e '.[all,dev]'
+	{ echo "# pip freeze of a working .venv (make constraints); used as pip install -c constraints.txt"; \
+	  $(BIN)/python -m pip freeze --exclude-editable --exclude sparc-quad; } > constraints.txt
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache

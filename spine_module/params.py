@@ -139,6 +139,14 @@ K_DEFAULT = np.array([500.0, 1000.0, 15.0])  # k_x N/m, k_z N/m, k_theta N*m/rad
 D_DEFAULT = np.array([20.0, 20.0, 0.3])  # d_x N*s/m, d_z N*s/m, d_theta N*m*s/rad
 DLS_LAMBDA = 1e-3  # damped least-squares regulariser lambda (m), small as in eq. (3)
 
+# Bench experiments (Section IV): the commanded k_x / d_x each one sweeps; the other axes hold K_DEFAULT and
+# D_DEFAULT, except d_x on the quasi-static runs (push-pull, hand-held holds), which is light
+BENCH_STATIC_K_X_N_M = (300.0, 400.0, 500.0, 600.0, 700.0)  # Table IV
+BENCH_PD_K_X_N_M = (300.0, 400.0, 500.0, 600.0)  # Fig. 7
+BENCH_DYNAMIC_K_X_N_M = (300.0, 500.0)  # Fig. 5
+BENCH_DYNAMIC_D_X_N_S_M = (0.0, 2.0, 20.0, 40.0)  # Fig. 5
+BENCH_QUASI_STATIC_D_X_N_S_M = 5.0
+
 
 @dataclass(frozen=True)
 class SensorParams:

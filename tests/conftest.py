@@ -19,7 +19,7 @@ def lcm_run(tmp_path_factory):
     `lcm-logger`, as separate processes on UDP multicast in a network namespace. Returns (folder, logs)."""
     out = tmp_path_factory.mktemp("lcm_run")
     py = shlex.quote(sys.executable)
-    exp = f"--experiment static --k {K} --period {PERIOD} --cycles 1"
+    exp = f"--experiment static --kx {K} --period {PERIOD} --cycles 1"
     script = f"""
 export PYTHONPATH={shlex.quote(str(ROOT))}
 {py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 2 --soft-start 0 \

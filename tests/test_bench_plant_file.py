@@ -43,7 +43,7 @@ def test_bad_plant_file_names_the_file(tmp_path):
 
 def test_bench_cli_runs_with_a_gap_plant_file(tmp_path):
     out = tmp_path / "out"
-    assert main(["bench", "static", "--quick", "--k", "500", "--plant", str(gain_file(tmp_path, 0.7)),
+    assert main(["bench", "static", "--quick", "--kx", "500", "--plant", str(gain_file(tmp_path, 0.7)),
                  "--out", str(out)]) == 0
     doc = json.loads((out / "static.json").read_text())
     assert doc["plant"]["effects"]["effects"][0]["name"] == "torque_gain"

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _motors(channel, *args):
-    return main(["motors", *args, "--interface", "virtual", "--channel", channel, "--timeout", "0.2"])
+    return main(["motors", *args, "--can-interface", "virtual", "--can-channel", channel, "--timeout", "0.2"])
 
 
 def test_motors_cli(capsys, tmp_path):
@@ -34,7 +34,7 @@ def test_motors_cli(capsys, tmp_path):
         assert _motors(channel, "disable", "--clear-fault") == 0
         assert capsys.readouterr().out.count("mode RESET") == 3
         log = tmp_path / "set-id.asc"
-        assert _motors(channel, "set-id", "--ids", "3", "--new-id", "5", "--yes", "--log", str(log)) == 0
+        assert _motors(channel, "set-id", "--ids", "3", "--new-id", "5", "--yes", "--can-log", str(log)) == 0
         assert "motor 3 -> 5: answered" in capsys.readouterr().out
         assert sorted(emu.motors) == [1, 2, 5]
         frames = list(can.LogReader(str(log)))

@@ -51,8 +51,8 @@ ORCHESTRATOR = textwrap.dedent(f"""
 
     py, chan = sys.executable, "{GROUP}"
     out = {{}}
-    emu = subprocess.Popen([py, "-m", "sparc_quad", "motors", "emulate", "--interface", "udp_multicast",
-                            "--channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True)
+    emu = subprocess.Popen([py, "-m", "sparc_quad", "motors", "emulate", "--can-interface", "udp_multicast",
+                            "--can-channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True)
     assert "emulating" in emu.stdout.readline()
     sbus = can.Bus(interface="udp_multicast", channel=chan)
     sniffer = Sniffer()
@@ -61,8 +61,8 @@ ORCHESTRATOR = textwrap.dedent(f"""
     found = cybergear.CyberGearMotor.scan(bus_config={{"interface": "udp_multicast", "channel": chan}},
                                           timeout=0.5, candidates=[1, 2, 3, 4])
     out["scan"] = [cid for cid, _ in found]
-    st = subprocess.run([py, "-m", "sparc_quad", "motors", "status", "--interface", "udp_multicast",
-                         "--channel", chan], capture_output=True, text=True, timeout=60)
+    st = subprocess.run([py, "-m", "sparc_quad", "motors", "status", "--can-interface", "udp_multicast",
+                         "--can-channel", chan], capture_output=True, text=True, timeout=60)
     out["status_rc"], out["status"] = st.returncode, st.stdout
     driver = subprocess.Popen([py, sys.argv[1]], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = driver.stdout.readline()

@@ -60,8 +60,8 @@ subprocess.run(["ip", "route", "add", "224.0.0.0/4", "dev", "lo"], check=True)
 from tests.can_util import Sniffer
 from spine_module.buses.cybergear import protocol as P
 py, chan, log = sys.executable, "239.74.163.2", sys.argv[1]
-emu = subprocess.Popen([py, "-m", "sparc_quad", "motors", "emulate", "--interface", "udp_multicast",
-                        "--channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True)
+emu = subprocess.Popen([py, "-m", "sparc_quad", "motors", "emulate", "--can-interface", "udp_multicast",
+                        "--can-channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True)
 emu.stdout.readline()
 sbus = can.Bus(interface="udp_multicast", channel=chan)
 sn = Sniffer()

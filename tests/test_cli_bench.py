@@ -16,7 +16,7 @@ def test_help_states_units(cmd, capsys):
 
 
 def test_bench_static_quick_writes_outputs(tmp_path, capsys):
-    assert main(["bench", "static", "--quick", "--k", "400", "--out", str(tmp_path)]) == 0
+    assert main(["bench", "static", "--quick", "--kx", "400", "--out", str(tmp_path)]) == 0
     doc = json.loads((tmp_path / "static.json").read_text())
     assert doc["rows"][0]["k_cmd"] == 400.0
     assert (tmp_path / "static.png").stat().st_size > 10_000
@@ -26,5 +26,5 @@ def test_bench_static_quick_writes_outputs(tmp_path, capsys):
 
 def test_bad_number_list_is_a_clear_error(capsys):
     with pytest.raises(SystemExit):
-        main(["bench", "static", "--k", "300,abc"])
+        main(["bench", "static", "--kx", "300,abc"])
     assert "comma-separated numbers" in capsys.readouterr().err

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
 
@@ -36,19 +35,30 @@ def test_realtime_clock_advances():
 
 def test_registry_names_backends_and_errors_clearly():
     assert {"lcm", "inprocess", "can"} <= set(registry.BACKENDS)
-    assert isinstance(registry.make_bus("inprocess", argparse.Namespace()), InProcessBus)
+    assert isinstance(registry.make_bus("inprocess"), InProcessBus)
     with pytest.raises(ValueError, match="unknown motor backend 'nope'"):
-        registry.make_bus("nope", argparse.Namespace())
+        registry.make_bus("nope")
+    with pytest.raises(ValueError, match=r"takes no option.*chanel"):  # a misspelt option is named
+        registry.make_bus("can", chanel="can0")
     registry.register("broken", "spine_module.buses.does_not_exist")
     try:
         with pytest.raises(ValueError, match="not available"):
-            registry.make_bus("broken", argparse.Namespace())
+            registry.make_bus("broken")
     finally:
         del registry.BACKENDS["broken"]
 
 
+def test_can_bus_from_keywords_like_python_can():
+    """The CAN backend is built from keyword arguments, as can.Bus(interface=..., channel=...) is."""
+    bus = registry.make_bus("can", interface="virtual", channel="kw-test", bitrate=500_000)
+    try:
+        assert bus.joint_names == ("q2", "q3", "q4") and bus.bus.channel_info
+    finally:
+        bus.shutdown()
+
+
 def test_spine_node_inprocess_static(capsys):
-    rc = main(["spine-node", "--motors", "inprocess", "--experiment", "static", "--k", "400",
+    rc = main(["spine-node", "--motors", "inprocess", "--experiment", "static", "--kx", "400",
                "--period", "0.5", "--duration", "0.5", "--soft-start", "0"])
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert rc == 0 and out["ticks"] == 500 and 100 < out["k_hat_n_m"] < 800
@@ -62,7 +72,7 @@ def test_help_lists_both_commands(capsys):
 
 
 def test_spine_cmd_validates_before_sending(capsys, caplog):
-    assert main(["spine-cmd", "--lcm-url", "memq://", "--k", "1e9", "1000", "15"]) == 2
+    assert main(["spine-cmd", "--lcm-url", "memq://", "--kx", "1e9"]) == 2
     assert "SPARC_SPINE_COMMAND.k[0]" in caplog.text
     assert main(["spine-cmd", "--lcm-url", "memq://", "--mode", "estop"]) == 0
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1]) == {"sent": 1, "mode": "ESTOP"}

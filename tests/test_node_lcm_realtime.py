@@ -32,7 +32,7 @@ export PYTHONPATH={shlex.quote(str(ROOT))}
 {py} -m sparc_quad spine-node --clock realtime --soft-start 0 --summary {tmp_path}/node.json \
     > /dev/null 2> {tmp_path}/node.err &
 NODE=$!
-{py} -m sparc_quad bench-robot --clock realtime --experiment static --k {K} --period {PERIOD} --cycles 1 \
+{py} -m sparc_quad bench-robot --clock realtime --experiment static --kx {K} --period {PERIOD} --cycles 1 \
     --out {tmp_path} > /dev/null 2> {tmp_path}/robot.err
 kill -TERM $NODE
 wait $NODE

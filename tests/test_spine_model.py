@@ -4,7 +4,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from sparc_quad.robots import generate_all, spine_urdf_path
+from sparc_quad.robots import spine_urdf_path
+from sparc_quad.sim.robot_files import generate_all
 from spine_module import params as P
 from spine_module.model import SpineModel
 from spine_module.urdf import spine_urdf

@@ -33,16 +33,16 @@ class DynamicConfig:
     """k_values N/m, b_values N*s/m (d_x), displacement_m of the release, duration_s per trial,
     trials per case, release_jitter_m (1 sigma), the other axes' gains (N/m, N*m/rad, N*s/m, N*m*s/rad)."""
 
-    k_values: tuple[float, ...] = (300.0, 500.0)
-    b_values: tuple[float, ...] = (0.0, 2.0, 20.0, 40.0)
+    k_values: tuple[float, ...] = P.BENCH_DYNAMIC_K_X_N_M
+    b_values: tuple[float, ...] = P.BENCH_DYNAMIC_D_X_N_S_M
     displacement_m: float = 0.037
     duration_s: float = 1.5
     trials: int = 10
     release_jitter_m: float = 0.0005
-    k_z: float = 1000.0
-    k_theta: float = 15.0
-    d_z: float = 20.0
-    d_theta: float = 0.3
+    k_z: float = float(P.K_DEFAULT[1])
+    k_theta: float = float(P.K_DEFAULT[2])
+    d_z: float = float(P.D_DEFAULT[1])
+    d_theta: float = float(P.D_DEFAULT[2])
     sample_every: int = 2
     seed: int = 0
     plant: PlantConfig = field(default_factory=PlantConfig)

@@ -29,12 +29,12 @@ class PDConfig:
     """k_values N/m; displacements_m of the hand; trials per k; hold_s and read_s per displacement (s);
     settle_s before the ruler is zeroed; start_jitter_rad (1 sigma joint offset of each trial's start)."""
 
-    k_values: tuple[float, ...] = (300.0, 400.0, 500.0, 600.0)
+    k_values: tuple[float, ...] = P.BENCH_PD_K_X_N_M
     displacements_m: tuple[float, ...] = (0.005, 0.010, 0.015, 0.020, 0.025, 0.030)
     trials: int = 5
-    k_z: float = 1000.0
-    k_theta: float = 15.0
-    d: tuple[float, float, float] = (5.0, 20.0, 0.3)
+    k_z: float = float(P.K_DEFAULT[1])
+    k_theta: float = float(P.K_DEFAULT[2])
+    d: tuple[float, float, float] = (P.BENCH_QUASI_STATIC_D_X_N_S_M, *(float(v) for v in P.D_DEFAULT[1:]))
     hand_k: float = 5000.0
     hand_d: float = 50.0
     ramp_s: float = 0.3

@@ -38,10 +38,10 @@ class StaticConfig:
     amplitude_m: peak displacement the push aims for; period_s of one push-pull; cycles; one (x, F)
     pair every sample_every control steps."""
 
-    k_values: tuple[float, ...] = (300.0, 400.0, 500.0, 600.0, 700.0)
-    k_z: float = 1000.0
-    k_theta: float = 15.0
-    d: tuple[float, float, float] = (5.0, 20.0, 0.3)
+    k_values: tuple[float, ...] = P.BENCH_STATIC_K_X_N_M
+    k_z: float = float(P.K_DEFAULT[1])
+    k_theta: float = float(P.K_DEFAULT[2])
+    d: tuple[float, float, float] = (P.BENCH_QUASI_STATIC_D_X_N_S_M, *(float(v) for v in P.D_DEFAULT[1:]))
     amplitude_m: float = 0.025
     period_s: float = 8.0
     cycles: int = 2

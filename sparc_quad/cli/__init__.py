@@ -2,6 +2,11 @@
 
 To add a subcommand, write `sparc_quad/cli/<name>.py` with `register(sub)` that adds its parser and sets
 `func` (called with the parsed args, returning an exit code), then add the module name to `COMMANDS`.
+
+Command modules import only the robot-side install at module level (argparse, params, the spine module):
+simulation, plotting and statistics are imported inside the run functions, so `spine-node --help` starts
+without pybullet, matplotlib or scipy, and a command whose extra is not installed says which one to
+install (exit 2). A subparser may name its extra with `set_defaults(extra="sim")`.
 """
 
 from __future__ import annotations
@@ -12,6 +17,14 @@ import logging
 import sys
 
 COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node", "motors", "gap", "bound", "study")
+
+# top-level modules that only an extra installs -> that extra (when the command names none)
+EXTRA_OF_MODULE: dict[str, str] = {
+    "pybullet": "sim", "pybullet_data": "sim", "example_robot_data": "sim", "tqdm": "sim", "msgpack": "sim",
+    "matplotlib": "sim", "scipy": "sim", "statsmodels": "gap", "cma": "study", "dask": "study",
+    "distributed": "study",
+}
+
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -26,12 +39,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def missing_extra(exc: ModuleNotFoundError, extra: str | None) -> str | None:
+    """The message for a module an extra would install, or None if `exc` is not about such a module."""
+    top = (exc.name or "").split(".")[0]
+    if top not in EXTRA_OF_MODULE:
+        return None
+    extra = extra or EXTRA_OF_MODULE[top]
+    return f"this command needs the [{extra}] extra (module {top!r} is not installed): " \
+           f"pip install 'sparc-quad[{extra}]'"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s: %(message)s")
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except ModuleNotFoundError as exc:
+        msg = missing_extra(exc, getattr(args, "extra", None))
+        if msg is None:
+            raise
+        print(f"sparc-quad {args.command}: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:  # outputs are written atomically (cli.output), so nothing half-written stays
+        print(f"sparc-quad {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

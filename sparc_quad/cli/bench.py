@@ -6,24 +6,17 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from tqdm import tqdm
-
-from sparc_quad.bench import dynamic, pd, static
-from sparc_quad.sim.plant import PlantConfig
+from sparc_quad.cli.args import add_gain_options, nonnegative_int, positive_int
+from spine_module import params as P
 
 UNITS = "Units: stiffness N/m, damping N*s/m, displacement m, force N, time s."
-
-
-def _floats(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(v) for v in text.split(","))
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from exc
+QUASI_STATIC = {"dx": P.BENCH_QUASI_STATIC_D_X_N_S_M}
 
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("out/bench"), help="output folder (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed of the first trial (default: 0)")
+    p.add_argument("--seed", type=nonnegative_int, default=0,
+                   help="noise seed of the first trial (default: 0)")
     p.add_argument("--plant", type=Path, default=None,
                    help="plant-model JSON (friction truth, rotor inertia, sensors) instead of the default")
     p.add_argument("--ideal-plant", action="store_true",
@@ -37,41 +30,63 @@ def register(sub: argparse._SubParsersAction) -> None:
     bsub = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
     s = bsub.add_parser("static", help="quasi-static push-pull, stiffness by OLS (Table IV, Fig. 4)",
                         description="Push-pull along x; writes static.json, static.csv, static.png. " + UNITS)
-    s.add_argument("--k", type=_floats, default=static.StaticConfig.k_values, help="k_x values, N/m")
+    add_gain_options(s, sweep=("kx",), defaults={"kx": P.BENCH_STATIC_K_X_N_M, **QUASI_STATIC})
     s.add_argument("--controller", choices=["impedance", "pd"], default="impedance")
     _common(s)
     s.set_defaults(func=run_static)
     d = bsub.add_parser("dynamic", help="displace 0.037 m and release (Fig. 5)",
                         description="Release trials; writes dynamic.json and dynamic.png. " + UNITS)
-    d.add_argument("--k", type=_floats, default=dynamic.DynamicConfig.k_values, help="k_x values, N/m")
-    d.add_argument("--b", type=_floats, default=dynamic.DynamicConfig.b_values, help="d_x values, N*s/m")
-    d.add_argument("--trials", type=int, default=dynamic.DynamicConfig.trials, help="trials per case")
+    add_gain_options(d, sweep=("kx", "dx"),
+                     defaults={"kx": P.BENCH_DYNAMIC_K_X_N_M, "dx": P.BENCH_DYNAMIC_D_X_N_S_M})
+    d.add_argument("--trials", type=positive_int, default=None, help="trials per case (default: 10)")
     _common(d)
     d.set_defaults(func=run_dynamic)
     q = bsub.add_parser("pd", help="task-space PD vs impedance, quasi-static holds (Fig. 7)",
                         description="Hand-held displacements; writes pd.json and pd.png. " + UNITS)
-    q.add_argument("--k", type=_floats, default=pd.PDConfig.k_values, help="k_x values, N/m")
-    q.add_argument("--trials", type=int, default=pd.PDConfig.trials, help="trials per k")
+    add_gain_options(q, sweep=("kx",), defaults={"kx": P.BENCH_PD_K_X_N_M, **QUASI_STATIC})
+    q.add_argument("--trials", type=positive_int, default=None, help="trials per k (default: 5)")
     _common(q)
     q.set_defaults(func=run_pd)
     a = bsub.add_parser("all", help="static, dynamic and pd in one go",
                         description="All three experiments into one folder. " + UNITS)
     _common(a)
     a.set_defaults(func=run_all)
+    p.set_defaults(extra="sim")
 
 
-def _plant(args: argparse.Namespace) -> PlantConfig:
+def _plant(args: argparse.Namespace):
+    from sparc_quad.sim.plant import PlantConfig
+
     plant = PlantConfig.load(args.plant) if args.plant else PlantConfig()
     return plant.ideal() if args.ideal_plant else plant
 
 
+def _given(args: argparse.Namespace, **fields: str) -> dict[str, object]:
+    """Config fields from the options a subcommand has (`bench all` has none: the configs' defaults)."""
+    return {f: getattr(args, a) for f, a in fields.items() if getattr(args, a, None) is not None}
+
+
+def _quasi_static_gains(args: argparse.Namespace) -> dict[str, object]:
+    out = _given(args, k_values="kx", k_z="kz", k_theta="kth")
+    if hasattr(args, "dx"):
+        out["d"] = (args.dx, args.dz, args.dth)
+    return out
+
+
+def _progress(items, desc: str, unit: str):
+    from tqdm import tqdm
+
+    return tqdm(items, desc=desc, unit=unit)
+
+
 def run_static(args: argparse.Namespace) -> int:
-    cfg = static.StaticConfig(k_values=getattr(args, "k", static.StaticConfig.k_values),
-                              controller=getattr(args, "controller", "impedance"), seed=args.seed,
-                              plant=_plant(args))
+    from sparc_quad.bench import static
+
+    cfg = static.StaticConfig(controller=getattr(args, "controller", "impedance"), seed=args.seed,
+                              plant=_plant(args), **_quasi_static_gains(args))
     if args.quick:
         cfg = replace(cfg, period_s=4.0, cycles=1, sample_every=3)
-    rows, raw = static.run_static(cfg, tqdm(cfg.k_values, desc="static k_x", unit="k"))
+    rows, raw = static.run_static(cfg, _progress(cfg.k_values, "static k_x", "k"))
     static.write_static(rows, raw, cfg, args.out)
     print(static.format_table(rows))
     print(f"wrote {args.out / 'static.json'}, static.csv, static.png")
@@ -79,14 +94,15 @@ def run_static(args: argparse.Namespace) -> int:
 
 
 def run_dynamic(args: argparse.Namespace) -> int:
-    cfg = dynamic.DynamicConfig(k_values=getattr(args, "k", dynamic.DynamicConfig.k_values),
-                                b_values=getattr(args, "b", dynamic.DynamicConfig.b_values),
-                                trials=getattr(args, "trials", dynamic.DynamicConfig.trials), seed=args.seed,
-                                plant=_plant(args))
+    from sparc_quad.bench import dynamic
+
+    cfg = dynamic.DynamicConfig(seed=args.seed, plant=_plant(args),
+                                **_given(args, k_values="kx", b_values="dx", k_z="kz", k_theta="kth",
+                                         d_z="dz", d_theta="dth", trials="trials"))
     if args.quick:
         cfg = replace(cfg, trials=3, duration_s=1.2)
     pairs = [(k, b) for k in cfg.k_values for b in cfg.b_values]
-    cases, curves = dynamic.run_dynamic(cfg, tqdm(pairs, desc="dynamic (k, b)", unit="case"))
+    cases, curves = dynamic.run_dynamic(cfg, _progress(pairs, "dynamic (k, b)", "case"))
     dynamic.write_dynamic(cases, curves, cfg, args.out)
     print(f"{'k':>5} {'b':>5} {'NRMSE':>7} {'zeta':>6} {'fit':>6} {'lag0':>6} {'drift':>6} {'growth':>6}")
     for c in cases:
@@ -99,12 +115,14 @@ def run_dynamic(args: argparse.Namespace) -> int:
 
 
 def run_pd(args: argparse.Namespace) -> int:
-    cfg = pd.PDConfig(k_values=getattr(args, "k", pd.PDConfig.k_values),
-                      trials=getattr(args, "trials", pd.PDConfig.trials), seed=args.seed, plant=_plant(args))
+    from sparc_quad.bench import pd
+
+    cfg = pd.PDConfig(seed=args.seed, plant=_plant(args), **_quasi_static_gains(args),
+                      **_given(args, trials="trials"))
     if args.quick:
         cfg = replace(cfg, trials=3, displacements_m=(0.01, 0.02, 0.03))
     pairs = [(c, k) for c in cfg.controllers for k in cfg.k_values]
-    rows = pd.run_pd(cfg, tqdm(pairs, desc="pd (controller, k_x)", unit="k"))
+    rows = pd.run_pd(cfg, _progress(pairs, "pd (controller, k_x)", "k"))
     pd.write_pd(rows, cfg, args.out)
     print(f"{'controller':>10} {'k_x':>5} {'slope mean':>10} {'slope SD':>9} {'R2':>7}")
     for r in rows:

@@ -5,13 +5,23 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 from pathlib import Path
 
+from sparc_quad.cli.args import (
+    add_gain_options,
+    damping,
+    finite_float,
+    fraction_open,
+    in_range,
+    nonnegative_float,
+    nonnegative_int,
+    positive_float,
+    stiffness,
+)
 from sparc_quad.gaits.bound import BoundParams
-from sparc_quad.sim.bound_run import BoundConfig, run_bound, write_outputs
-from sparc_quad.sim.quadruped_world import ImuConfig, WorldConfig
-from sparc_quad.sim.spine_drive import SpineGains
-from spine_module import params as P
+from sparc_quad.sim.imu import ImuConfig
+from sparc_quad.sim.quadruped_urdf import DEFAULT_HOST, ROBOT_HOSTS
 
 log = logging.getLogger(__name__)
 
@@ -23,59 +33,34 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Simulate the quadruped with the SPARC spine bounding (pybullet DIRECT, 1 kHz). "
         "Writes metrics.json, timeseries.csv and PNG plots to --out.",
     )
-    k, d = P.K_DEFAULT, P.D_DEFAULT
-    g = BoundParams()
-    p.add_argument(
-        "--kx", type=float, default=k[0], help="spine stiffness along x, N/m (default %(default)s)"
-    )
-    p.add_argument(
-        "--kz", type=float, default=k[1], help="spine stiffness along z, N/m (default %(default)s)"
-    )
-    p.add_argument(
-        "--ktheta", type=float, default=k[2], help="spine stiffness in pitch, N*m/rad (default %(default)s)"
-    )
-    p.add_argument(
-        "--dx", type=float, default=d[0], help="spine damping along x, N*s/m (default %(default)s)"
-    )
-    p.add_argument(
-        "--dz", type=float, default=d[1], help="spine damping along z, N*s/m (default %(default)s)"
-    )
-    p.add_argument(
-        "--dtheta", type=float, default=d[2], help="spine damping in pitch, N*m*s/rad (default %(default)s)"
-    )
-    p.add_argument("--duration", type=float, default=10.0, help="simulated time, s (default %(default)s)")
-    p.add_argument(
-        "--speed", type=float, default=g.speed_m_s, help="target forward speed, m/s (default %(default)s)"
-    )
-    p.add_argument(
-        "--frequency", type=float, default=g.frequency_hz, help="stride frequency, Hz (default %(default)s)"
-    )
-    p.add_argument(
-        "--stride",
-        type=float,
-        default=None,
-        help="stride length, m; sets the target speed to stride * frequency (overrides --speed)",
-    )
-    p.add_argument("--step-height", type=float, default=g.step_height_m, help="swing foot clearance, m")
-    p.add_argument("--duty", type=float, default=None,
+    g, imu = BoundParams(), ImuConfig()
+    add_gain_options(p)
+    p.add_argument("--duration", type=positive_float, default=10.0,
+                   help="simulated time, s (default %(default)s)")
+    p.add_argument("--speed", type=nonnegative_float, default=g.speed_m_s,
+                   help="target forward speed, m/s (default %(default)s)")
+    p.add_argument("--frequency", type=positive_float, default=g.frequency_hz,
+                   help="stride frequency, Hz (default %(default)s)")
+    p.add_argument("--stride", type=positive_float, default=None,
+                   help="stride length, m; sets the target speed to stride * frequency (overrides --speed)")
+    p.add_argument("--step-height", type=nonnegative_float, default=g.step_height_m,
+                   help="swing foot clearance, m")
+    p.add_argument("--duty", type=fraction_open, default=None,
                    help="stance fraction of each leg pair (default: 0.5 at <= 0.3 m/s to 0.45 at >= 0.6 m/s)")
-    p.add_argument(
-        "--slope", type=float, default=0.0, help="ground slope, rad; > 0 uphill (default %(default)s)"
-    )
+    p.add_argument("--slope", type=in_range(-math.pi / 2, math.pi / 2, lo_open=True, hi_open=True),
+                   default=0.0, help="ground slope, rad; > 0 uphill (default %(default)s)")
     p.add_argument("--rigid-spine", action="store_true",
                    help="baseline: spine joints locked at the equilibrium arch (pybullet fixed constraints)")
-    p.add_argument(
-        "--friction-comp", action="store_true", help="enable the controller's friction compensation"
-    )
-    p.add_argument(
-        "--imu-noise", type=float, default=ImuConfig().q1_noise_rad, help="estimator q1 noise, rad"
-    )
-    p.add_argument("--imu-bias", type=float, default=0.0, help="estimator q1 bias, rad")
-    p.add_argument(
-        "--imu-delay", type=int, default=ImuConfig().delay_steps, help="estimator delay, 1 ms steps"
-    )
-    p.add_argument("--seed", type=int, default=0, help="seed of every random number in the run")
-    p.add_argument("--host", default="solo12", help="host robot (robots/sparc_<host>)")
+    p.add_argument("--friction-comp", action="store_true",
+                   help="enable the controller's friction compensation")
+    p.add_argument("--imu-noise", type=nonnegative_float, default=imu.q1_noise_rad,
+                   help="estimator q1 noise, rad")
+    p.add_argument("--imu-bias", type=finite_float, default=0.0, help="estimator q1 bias, rad")
+    p.add_argument("--imu-delay", type=nonnegative_int, default=imu.delay_steps,
+                   help="estimator delay, 1 ms steps")
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of every random number in the run")
+    p.add_argument("--host", choices=ROBOT_HOSTS, default=DEFAULT_HOST,
+                   help="host robot (robots/sparc_<host>; default: %(default)s)")
     p.add_argument("--spine", choices=["direct", "node"], default="direct",
                    help="direct: the impedance controller called in this process (fastest); node: the spine "
                         "node in this process on the in-process bus (the reference for --lcm)")
@@ -83,16 +68,21 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="the spine node is another process (`sparc-quad spine-node --motors lcm`), over LCM; "
                         "lockstep unless --realtime")
     p.add_argument("--lcm-url", default="", help="LCM URL (default: LCM's default)")
-    p.add_argument("--wait-node", type=float, default=30.0,
+    p.add_argument("--wait-node", type=positive_float, default=30.0,
                    help="--lcm: wait this long (wall s) for the node's first heartbeat "
                         "(default: %(default)s)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--out", type=Path, default=Path("out/bound"), help="output folder (default %(default)s)")
     p.add_argument("--video", action="store_true", help="also render bound.gif (pybullet ER_TINY_RENDERER)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, extra="sim")
 
 
-def config_from_args(args: argparse.Namespace) -> BoundConfig:
+def config_from_args(args: argparse.Namespace):
+    """The run's BoundConfig (imports the simulator)."""
+    from sparc_quad.sim.bound_run import BoundConfig
+    from sparc_quad.sim.quadruped_world import WorldConfig
+    from sparc_quad.sim.spine_drive import SpineGains
+
     gait = BoundParams(
         frequency_hz=args.frequency, speed_m_s=args.speed, step_height_m=args.step_height, duty=args.duty
     )
@@ -100,7 +90,7 @@ def config_from_args(args: argparse.Namespace) -> BoundConfig:
         gait = gait.with_stride(args.stride)
     imu = ImuConfig(q1_noise_rad=args.imu_noise, q1_bias_rad=args.imu_bias, delay_steps=args.imu_delay)
     world = WorldConfig(host=args.host, slope_rad=args.slope, seed=args.seed, imu=imu)
-    spine = SpineGains(k=(args.kx, args.kz, args.ktheta), d=(args.dx, args.dz, args.dtheta))
+    spine = SpineGains(k=stiffness(args), d=damping(args))
     return BoundConfig(
         duration_s=args.duration,
         gait=gait,
@@ -114,6 +104,8 @@ def config_from_args(args: argparse.Namespace) -> BoundConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    from sparc_quad.sim.bound_run import run_bound, write_outputs
+
     cfg = config_from_args(args)
     spine = None
     if args.rigid_spine and (args.lcm or args.spine == "node"):

@@ -15,7 +15,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "OUT/bench. Units: SI (spine k_x 500 N/m, d_x 20 N*s/m; m, N, s).")
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder (default: %(default)s)")
     p.add_argument("--full", action="store_true", help="20 s bound and full-size experiments (minutes)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, extra="sim")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -12,8 +12,8 @@ import json
 import sys
 from pathlib import Path
 
-from sparc_quad.gap.errors import NumericalError, TrialError
-from sparc_quad.sim.plant_effects import EFFECT_NAMES, PlantEffectsError
+from sparc_quad.cli.args import nonnegative_int, positive_float, positive_int
+from sparc_quad.sim.plant_effects import EFFECT_NAMES
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,17 +27,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--plant", type=Path, default=None,
                    help="nominal plant-effects file (default: the sidecar's 'plant' key, else none)")
-    p.add_argument("--window", type=float, default=0.2, help="replay window length, s (default 0.2)")
-    p.add_argument("--cutoff", type=float, default=20.0, help="low-pass cut-off before differentiation, Hz")
+    p.add_argument("--window", type=positive_float, default=0.2, help="replay window length, s (default 0.2)")
+    p.add_argument("--cutoff", type=positive_float, default=20.0,
+                   help="low-pass cut-off before differentiation, Hz")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots and report.md")
     g = p.add_argument_group("synth")
     g.add_argument("--effect", action="append", default=[], metavar="NAME[:k=v,...]",
                    help="hidden effect (repeatable), e.g. coulomb_friction:joint=q3,tau_c_nm=0.15")
-    g.add_argument("--seed", type=int, default=0)
-    g.add_argument("--trials-n", type=int, default=3, help="number of trials (default 3)")
-    g.add_argument("--periods", type=int, default=None,
+    g.add_argument("--seed", type=nonnegative_int, default=0)
+    g.add_argument("--trials-n", type=positive_int, default=3, help="number of trials (default 3)")
+    g.add_argument("--periods", type=positive_int, default=None,
                    help="excitation periods per trial (default 4; synth-arm 2)")
-    g.add_argument("--period", type=float, default=1.5, help="excitation period, s (default 1.5)")
+    g.add_argument("--period", type=positive_float, default=1.5, help="excitation period, s (default 1.5)")
     g.add_argument("--unmodelled", choices=["cogging"], default=None,
                    help="also add an effect outside the library")
     a = p.add_argument_group("synth-arm (UR5 with massless flange, friction + rotor inertia on every motor, "
@@ -46,10 +47,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="write joint-side columns in N*m (default: motor side as a real arm logs it)")
     a.add_argument("--uncoupled", action="store_true", help="no wrist coupling (motor 6 turns q6 only)")
     a.add_argument("--no-dq", action="store_true", help="leave out the velocity columns")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, extra="gap")
 
 
 def run(args: argparse.Namespace) -> int:
+    from sparc_quad.gap.errors import NumericalError, TrialError
+    from sparc_quad.sim.plant_effects import PlantEffectsError
+
     try:
         if args.trials == ["synth"]:
             from sparc_quad.gap.synth import synth

@@ -1,7 +1,8 @@
 """`sparc-quad motors`: CyberGear motors on a CAN bus: scan, status, enable, disable, zero, set-id, emulate.
 
-Every action takes python-can's usual `--interface`, `--channel`, `--bitrate`; `--log PATH` records the
-session's frames with python-can (`.asc`, `.blf`, `.log`, `.csv` by suffix). Motor ids come from `--ids`
+Every action takes the CAN options spelled as on `spine-node --motors can` (`--can-interface`,
+`--can-channel`, `--can-bitrate`; `--can-log PATH` records the session's frames with python-can: `.asc`,
+`.blf`, `.log`, `.csv` by suffix). Motor ids come from `--ids`
 or from the per-joint config (`--motor-config`, default the packaged motors.toml).
 
 `emulate` answers as motors `--ids` on the bus until SIGINT/SIGTERM: `--plant free` (an inertia per motor,
@@ -17,9 +18,7 @@ import signal
 import sys
 import threading
 
-from spine_module.buses.cybergear import protocol as P
-from spine_module.buses.cybergear.config import DEFAULT_CONFIG_PATH, ConfigError, load_config
-from spine_module.buses.cybergear.driver import open_bus
+from sparc_quad.cli.args import add_can_options, in_range, positive_float
 
 ACTIONS = ("scan", "status", "enable", "disable", "zero", "set-id", "emulate")
 
@@ -28,25 +27,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("motors", help="CyberGear motors on CAN: scan, status, enable, disable, zero, set-id, "
                                       "emulate")
     p.add_argument("action", choices=ACTIONS)
-    p.add_argument("--interface", default="socketcan",
-                   help="python-can interface: socketcan, pcan, slcan, gs_usb, virtual, udp_multicast, ...")
-    p.add_argument("--channel", default="can0", help="python-can channel (default: %(default)s)")
-    p.add_argument("--bitrate", type=int, default=1_000_000, help="bit/s (default: %(default)s)")
-    p.add_argument("--host-id", type=lambda s: int(s, 0), default=None,
+    add_can_options(p)
+    p.add_argument("--host-id", type=_can_id, default=None,
                    help="this host's CAN id (default: from the motor config)")
     p.add_argument("--ids", default=None, help="motor ids, e.g. 1,2,3 (default: from the motor config; "
                                                "scan: 1..127)")
-    p.add_argument("--motor-config", default=str(DEFAULT_CONFIG_PATH), help="per-joint config (TOML)")
-    p.add_argument("--timeout", type=float, default=0.5, help="seconds to wait for replies")
-    p.add_argument("--log", default=None, metavar="PATH", help="log the session's frames (.asc/.blf/...)")
+    p.add_argument("--timeout", type=positive_float, default=0.5, help="seconds to wait for replies")
     p.add_argument("--clear-fault", action="store_true", help="disable: also clear latched faults")
-    p.add_argument("--new-id", type=int, default=None, help="set-id: the new id (1..127); --ids: the old one")
+    p.add_argument("--new-id", type=in_range(1, 127, kind=int), default=None,
+                   help="set-id: the new id (1..127); --ids: the old one")
     p.add_argument("--yes", action="store_true", help="enable/zero/set-id: do it without asking")
     p.add_argument("--plant", choices=("free", "bench"), default="free",
                    help="emulate: physics behind the motors")
     p.add_argument("--lockstep", action="store_true", help="emulate: one plant step per full command set")
-    p.add_argument("--duration", type=float, default=None, help="emulate: stop after this many seconds")
+    p.add_argument("--duration", type=positive_float, default=None,
+                   help="emulate: stop after this many seconds")
     p.set_defaults(func=run)
+
+
+def _can_id(text: str) -> int:
+    """A CAN id, decimal or 0x-hex, 0..255."""
+    try:
+        value = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer (e.g. 253 or 0xFD), got {text!r}") from None
+    if not 0 <= value <= 0xFF:
+        raise argparse.ArgumentTypeError(f"must be in [0, 255], got {text!r}")
+    return value
 
 
 def _ids(args: argparse.Namespace, cfg) -> list[int]:
@@ -57,27 +64,32 @@ def _ids(args: argparse.Namespace, cfg) -> list[int]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from spine_module.buses.cybergear import protocol as P
+    from spine_module.buses.cybergear.config import ConfigError, load_config
+    from spine_module.buses.cybergear.driver import open_bus
+
     try:
         cfg = load_config(args.motor_config)
     except ConfigError as exc:
         print(f"motors: {exc}", file=sys.stderr)
         return 2
+    bitrate = args.can_bitrate or cfg.bitrate
     host = cfg.host_id if args.host_id is None else args.host_id
     ids = _ids(args, cfg)
     if args.action == "emulate":
-        return _emulate(args, ids, host, cfg)
+        return _emulate(args, ids, host, cfg, bitrate)
     if args.action in ("enable", "zero", "set-id") and not args.yes:
         if not sys.stdin.isatty():  # a pipe or a script cannot answer the question: refuse, act on --yes only
             print(f"motors {args.action}: stdin is not a terminal, so nobody can confirm; pass --yes to "
                   f"{args.action} motor(s) {ids} without asking", file=sys.stderr)
             return 2
-        answer = input(f"{args.action} motor(s) {ids} on {args.interface}:{args.channel}? [y/N] ")
+        answer = input(f"{args.action} motor(s) {ids} on {args.can_interface}:{args.can_channel}? [y/N] ")
         if answer.strip().lower() not in ("y", "yes"):
             return 1
     from spine_module.buses.cybergear import tools
 
-    bus = open_bus(args.interface, args.channel, args.bitrate)
-    with tools.Session(bus, host, cfg.ranges, args.log) as s:
+    bus = open_bus(args.can_interface, args.can_channel, bitrate)
+    with tools.Session(bus, host, cfg.ranges, args.can_log) as s:
         if args.action == "scan":
             found = tools.scan(s, ids, args.timeout)
             if not found:
@@ -118,8 +130,9 @@ def run(args: argparse.Namespace) -> int:
         return 0 if all(fb is not None for fb in got.values()) else 1
 
 
-def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg) -> int:
+def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: int) -> int:
     from sparc_quad.sim.cybergear_emulator import CyberGearEmulator, FreePlant
+    from spine_module.buses.cybergear.driver import open_bus
 
     stop = threading.Event()
 
@@ -128,7 +141,7 @@ def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg) -> int:
 
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, on_signal)
-    bus = open_bus(args.interface, args.channel, args.bitrate)
+    bus = open_bus(args.can_interface, args.can_channel, bitrate)
     world = None
     try:
         if args.plant == "bench":
@@ -139,13 +152,13 @@ def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg) -> int:
         else:
             plant = FreePlant(ids)
         log = None
-        if args.log:
+        if args.can_log:
             import can
-            log = can.Logger(args.log)
+            log = can.Logger(args.can_log)
         emu = CyberGearEmulator(bus, ids, plant, host_id=host, ranges=cfg.ranges, lockstep=args.lockstep,
                                 log=log)
         emu.keep_log = False
-        print(f"emulating CyberGear motor(s) {ids} on {args.interface}:{args.channel} "
+        print(f"emulating CyberGear motor(s) {ids} on {args.can_interface}:{args.can_channel} "
               f"({args.plant} plant{', lockstep' if args.lockstep else ''}); Ctrl-C to stop", flush=True)
         if args.lockstep:  # the plant steps on commands; the motors' CAN timeout still runs on the clock
             t_end = None if args.duration is None else emu.clock() + args.duration

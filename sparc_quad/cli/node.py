@@ -1,6 +1,6 @@
 """`sparc-quad spine-node` (the 1 kHz spine node) and `sparc-quad bench-robot` (the stand-in robot).
 
-    sparc-quad bench-robot --lcm-url URL --clock lockstep --experiment static --k 500 --out out/robot
+    sparc-quad bench-robot --lcm-url URL --clock lockstep --experiment static --kx 500 --out out/robot
     sparc-quad spine-node --motors lcm --lcm-url URL --clock lockstep
 
 Both speak the channels documented in README ("Spine node and LCM interface").
@@ -19,6 +19,18 @@ from pathlib import Path
 
 import numpy as np
 
+from sparc_quad.cli.args import (
+    add_can_options,
+    add_gain_options,
+    can_options,
+    damping,
+    finite_float,
+    nonnegative_float,
+    nonnegative_int,
+    positive_float,
+    positive_int,
+    stiffness,
+)
 from spine_module import params as P
 from spine_module.buses import registry
 from spine_module.buses.base import MotorBusError
@@ -33,13 +45,13 @@ def _experiment_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--experiment", choices=["hold", "static", "none"], default="hold",
                    help="hold: impedance at x_d with the default gains; static: push-pull along x "
                         "(paper Section IV-A); none: send no spine command (default: %(default)s)")
-    g.add_argument("--k", type=float, default=500.0, help="static: commanded k_x, N/m (default: %(default)s)")
-    g.add_argument("--amplitude", type=float, default=0.025,
+    add_gain_options(g, ("kx",), prefix="static: commanded ")
+    g.add_argument("--amplitude", type=positive_float, default=0.025,
                    help="static: displacement the push aims for, m (default: %(default)s)")
-    g.add_argument("--period", type=float, default=8.0,
+    g.add_argument("--period", type=positive_float, default=8.0,
                    help="static: push-pull period, s (default: %(default)s)")
-    g.add_argument("--cycles", type=float, default=1.0, help="static: cycles (default: %(default)s)")
-    g.add_argument("--seed", type=int, default=0, help="plant noise seed (default: %(default)s)")
+    g.add_argument("--cycles", type=positive_float, default=1.0, help="static: cycles (default: %(default)s)")
+    g.add_argument("--seed", type=nonnegative_int, default=0, help="plant noise seed (default: %(default)s)")
     g.add_argument("--ideal-plant", action="store_true", help="plant = model: no quantisation, no noise")
 
 
@@ -47,7 +59,7 @@ def _script(args: argparse.Namespace):
     from sparc_quad.sim.bench_robot import BenchScript, hold_script, static_push_script
 
     if args.experiment == "static":
-        s = static_push_script(args.k, args.amplitude, args.period, args.cycles)
+        s = static_push_script(args.kx, args.amplitude, args.period, args.cycles)
     elif args.experiment == "hold":
         s = hold_script()
     else:
@@ -85,21 +97,22 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "process, in lockstep)")
     p.add_argument("--lcm-url", default=channels.DEFAULT_URL,
                    help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
-    p.add_argument("--rate", type=float, default=P.CONTROL_RATE_HZ,
+    p.add_argument("--rate", type=positive_float, default=P.CONTROL_RATE_HZ,
                    help="control rate, Hz (default: %(default)s)")
     p.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime",
                    help="realtime: fixed-rate loop; lockstep: one step per motor feedback tick")
-    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds of node time")
-    p.add_argument("--idle-timeout", type=float, default=5.0,
+    p.add_argument("--duration", type=positive_float, default=None,
+                   help="stop after this many seconds of node time")
+    p.add_argument("--idle-timeout", type=positive_float, default=5.0,
                    help="lockstep: stop after this much wall time without motor feedback "
                         "(default: %(default)s)")
     p.add_argument("--no-heartbeat", action="store_true",
                    help="do not require the robot side's heartbeat (bench use without a PMU-like peer)")
-    p.add_argument("--soft-start", type=float, default=P.SAFETY.soft_start_s,
+    p.add_argument("--soft-start", type=nonnegative_float, default=P.SAFETY.soft_start_s,
                    help="gain ramp-in time on entering impedance/PD mode, s (default: %(default)s)")
-    p.add_argument("--state-every", type=int, default=1, help="publish spine state every N ticks")
+    p.add_argument("--state-every", type=positive_int, default=1, help="publish spine state every N ticks")
     p.add_argument("--summary", type=Path, default=None, help="write a JSON summary of the run here")
-    registry.add_backend_arguments(p)
+    add_can_options(p)
     _experiment_args(p)
     p.set_defaults(func=run_node)
 
@@ -111,15 +124,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--lcm-url", default=channels.DEFAULT_URL,
                    help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
     r.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime")
-    r.add_argument("--duration", type=float, default=None,
+    r.add_argument("--duration", type=positive_float, default=None,
                    help="seconds of robot time (default: the script's)")
-    r.add_argument("--wait-node", type=float, default=30.0,
+    r.add_argument("--wait-node", type=positive_float, default=30.0,
                    help="wait this long (wall s) for the node's first heartbeat before stepping "
                         "(default: %(default)s)")
     r.add_argument("--out", type=Path, default=None,
                    help="write bench_robot.npz (robot log and the node's states) and summary.json here")
     _experiment_args(r)
-    r.set_defaults(func=run_bench_robot)
+    r.set_defaults(func=run_bench_robot, extra="sim")
 
     c = sub.add_parser("spine-cmd", help="send spine commands (mode, target, gains, E-stop, reset) over LCM",
                        description="Publish sparc.spine_command_t on SPARC_SPINE_COMMAND, as a torso "
@@ -128,19 +141,19 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "should hold.")
     c.add_argument("--lcm-url", default=channels.DEFAULT_URL, help="LCM URL (default: %(default)s)")
     c.add_argument("--mode", choices=[m.name.lower().replace("_", "-") for m in Mode], default="impedance")
-    c.add_argument("--x-d", type=float, nargs=3, default=list(P.X_EQUILIBRIUM), metavar=("X", "Z", "THETA"),
+    c.add_argument("--x-d", type=finite_float, nargs=3, default=list(P.X_EQUILIBRIUM),
+                   metavar=("X", "Z", "THETA"),
                    help="target pose: x m, z m, theta rad (default: %(default)s)")
-    c.add_argument("--k", type=float, nargs=3, default=list(P.K_DEFAULT), metavar=("KX", "KZ", "KTH"),
-                   help="stiffness: N/m, N/m, N*m/rad (default: %(default)s)")
-    c.add_argument("--d", type=float, nargs=3, default=list(P.D_DEFAULT), metavar=("DX", "DZ", "DTH"),
-                   help="damping: N*s/m, N*s/m, N*m*s/rad (default: %(default)s)")
-    c.add_argument("--tau-ff", type=float, nargs=3, default=[0.0, 0.0, 0.0], metavar=("T2", "T3", "T4"),
+    add_gain_options(c)
+    c.add_argument("--tau-ff", type=finite_float, nargs=3, default=[0.0, 0.0, 0.0],
+                   metavar=("T2", "T3", "T4"),
                    help="joint feed-forward torques q2..q4, N*m")
     c.add_argument("--no-friction", action="store_true",
                    help="impedance without eq. (4) friction compensation")
     c.add_argument("--reset", action="store_true", help="ask the node to clear latched faults")
-    c.add_argument("--rate", type=float, default=50.0, help="messages per second (default: %(default)s)")
-    c.add_argument("--duration", type=float, default=0.0,
+    c.add_argument("--rate", type=positive_float, default=50.0,
+                   help="messages per second (default: %(default)s)")
+    c.add_argument("--duration", type=nonnegative_float, default=0.0,
                    help="seconds to keep sending (default: 0 = one message)")
     c.set_defaults(func=run_spine_cmd)
 
@@ -149,8 +162,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "decoded and validated (rejected ones are printed with the reason).")
     e.add_argument("--lcm-url", default=channels.DEFAULT_URL, help="LCM URL (default: %(default)s)")
     e.add_argument("--channels", default="SPARC_.*", help="channel regex (default: %(default)s)")
-    e.add_argument("--count", type=int, default=0, help="stop after this many messages (0: never)")
-    e.add_argument("--timeout", type=float, default=0.0, help="stop after this many seconds (0: never)")
+    e.add_argument("--count", type=nonnegative_int, default=0,
+                   help="stop after this many messages (0: never)")
+    e.add_argument("--timeout", type=nonnegative_float, default=0.0,
+                   help="stop after this many seconds (0: never)")
     e.set_defaults(func=run_spine_echo)
 
 
@@ -163,7 +178,8 @@ def run_spine_cmd(args: argparse.Namespace) -> int:
 
     from spine_module.messages import MessageError, SpineCommand, codec
 
-    cmd = SpineCommand(mode=_mode(args.mode), x_d=np.array(args.x_d), k=np.array(args.k), d=np.array(args.d),
+    cmd = SpineCommand(mode=_mode(args.mode), x_d=np.array(args.x_d), k=np.array(stiffness(args)),
+                       d=np.array(damping(args)),
                        tau_ff=np.array(args.tau_ff), friction_compensation=not args.no_friction,
                        reset=args.reset)
     try:  # validate before sending: the node would reject it anyway, naming the same field
@@ -243,6 +259,15 @@ def _node_config(args: argparse.Namespace):
                                           heartbeat_required=not args.no_heartbeat))
 
 
+def _bus_options(args: argparse.Namespace) -> dict[str, object]:
+    """The chosen backend's options as keyword arguments (see spine_module.buses.registry)."""
+    if args.motors == "can":
+        return can_options(args)
+    if args.motors == "lcm":
+        return {"url": args.lcm_url}
+    return {}
+
+
 def run_node(args: argparse.Namespace) -> int:
     import lcm
 
@@ -256,7 +281,7 @@ def run_node(args: argparse.Namespace) -> int:
         log.error("cannot open LCM at %r (a multicast route is needed, see README): %s", args.lcm_url, exc)
         return 2
     try:
-        bus = registry.make_bus(args.motors, args, lc)
+        bus = registry.make_bus(args.motors, lc=lc, **_bus_options(args))
     except ValueError as exc:
         log.error("%s", exc)
         return 2

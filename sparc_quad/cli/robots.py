@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sparc_quad.robots import ROBOTS_DIR, generate_all
+from sparc_quad.robots import ROBOTS_DIR
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -13,10 +13,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("action", choices=["generate", "check"],
                    help="generate: write the files; check: exit 1 if a committed file differs")
     p.add_argument("--dir", type=Path, default=ROBOTS_DIR, help="robots folder (default: %(default)s)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, extra="sim")
 
 
 def run(args: argparse.Namespace) -> int:
+    from sparc_quad.sim.robot_files import generate_all
+
     stale = []
     for path, text in generate_all(args.dir).items():
         current = path.read_text() if path.exists() else None

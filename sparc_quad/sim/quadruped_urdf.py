@@ -423,7 +423,7 @@ def robot_paths(robots_dir: Path, host: str) -> tuple[Path, Path]:
 
 
 def generate(robots_dir: Path) -> dict[Path, str]:
-    """Files for every host in ROBOT_HOSTS: path -> text (used by `sparc_quad.robots.generate_all`)."""
+    """Files for every host in ROBOT_HOSTS: path -> text (see `sparc_quad.sim.robot_files.generate_all`)."""
     files: dict[Path, str] = {}
     for host in ROBOT_HOSTS:
         model = quadruped(host)

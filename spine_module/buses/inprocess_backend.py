@@ -6,11 +6,9 @@ The robot end of the link is driven by the caller (`sparc_quad.sim.bench_robot`)
 
 from __future__ import annotations
 
-import argparse
-
 from spine_module.buses.inprocess import InProcessBus, InProcessLink
 
 
-def make_bus(args: argparse.Namespace, lc=None) -> InProcessBus:
-    link = getattr(args, "inprocess_link", None)
+def make_bus(*, lc=None, link: InProcessLink | None = None) -> InProcessBus:
+    """The node's end of `link` (a new link if None); `lc` is not used."""
     return InProcessBus(link if link is not None else InProcessLink())

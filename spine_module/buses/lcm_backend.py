@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import argparse
-
 from spine_module.buses.lcm import LcmMotorBus
 
 
-def make_bus(args: argparse.Namespace, lc=None) -> LcmMotorBus:
-    return LcmMotorBus(url=getattr(args, "lcm_url", ""), lc=lc)
+def make_bus(*, lc=None, url: str = "") -> LcmMotorBus:
+    """Motors over LCM at `url` (LCM's default if empty), sharing the node's LCM instance `lc` if given."""
+    return LcmMotorBus(url=url, lc=lc)

@@ -5,17 +5,18 @@ tau = M J†(ẍ_d − J̇q̇) + Jᵀ(D(ẋ_d − ẋ) + K(x_d − x)) + C q̇ +
 M J† a + C q̇ + g is evaluated as one RNEA pass at the desired joint acceleration
 ddq* = [q̈1, J†(ẍ_d − J̇q̇)]: mathematically the same as forming M and C, without building them. The
 measured torso acceleration q̈1 enters ddq*, so torso pitching is compensated on a robot (0 on the bench).
-J† = Jᵀ(JJᵀ + λ²I)⁻¹ is the damped least-squares pseudo-inverse.
+J† = Jᵀ(JJᵀ + λ²I)⁻¹ is the damped least-squares pseudo-inverse; its 3x3 solve is `solve3` (no scipy on the
+robot: numpy.linalg.solve would cost about 5x LAPACK's gesv on a 3x3 through its call overhead).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg.lapack import dgesv as _gesv
 
 from spine_module import params as P
 from spine_module.control import kernel as kn
 from spine_module.control.friction import StribeckFriction
+from spine_module.control.linalg import solve3
 from spine_module.control.output import ControlOutput, TaskController
 from spine_module.model import SpineModel
 
@@ -37,6 +38,7 @@ class ImpedanceController(TaskController):
         self._ddq = np.zeros(model.nv)
         self._ddq_act = self._ddq[1:]
         self._a = np.zeros(3)
+        self._y = np.zeros(3)
         self._jjt = np.zeros((3, 3))
         self._lambda2_eye = self.lambda2 * np.eye(3)
 
@@ -60,7 +62,7 @@ class ImpedanceController(TaskController):
             np.subtract(self.ddx_d, data.jdot_qdot, out=self._a)
             np.matmul(J, J.T, out=self._jjt)
             self._jjt += self._lambda2_eye
-            y = _gesv(self._jjt, self._a)[2]
+            y = solve3(self._jjt, self._a, self._y)
             np.matmul(J.T, y, out=self._ddq_act)
             self._ddq[0] = ddq1
             tau = self._tau_full
