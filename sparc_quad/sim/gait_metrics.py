@@ -47,8 +47,9 @@ def cost_of_transport(energy_j: float, mass_kg: float, distance_m: float, g: flo
 
 
 def dominant_frequency_hz(x: np.ndarray, dt: float) -> float:
-    """The frequency of the largest peak of x's spectrum (mean removed, Hann window); NaN if flat."""
-    if len(x) < 16 or float(np.ptp(x)) < 1e-9:
+    """The frequency of the largest peak of x's spectrum (mean removed, Hann window); NaN if flat
+    (peak-to-peak < 1e-5)."""
+    if len(x) < 16 or float(np.ptp(x)) < 1e-5:  # a locked joint jitters by ~1e-6
         return float("nan")
     y = (x - x.mean()) * np.hanning(len(x))
     spec = np.abs(np.fft.rfft(y))

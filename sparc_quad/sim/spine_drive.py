@@ -64,17 +64,25 @@ class TaskKinematics:
 
 
 class PassiveSpine:
-    """An ideal spring-damper between the bodies: F = K (x_d - x) - D dx in task space, tau = J^T F.
+    """An ideal spring-damper between the bodies: F = K (x_d - x) - D dx in task space, tau = J^T F, plus
+    (`preload`) a constant joint torque tau_0 = g(q_eq): the spine links' own weight at the level
+    equilibrium arch, as a spring designed with its rest length set for that load would carry.
 
-    Nothing else (no gravity, inertia or friction compensation): what a physical spring of the same K, D
-    would apply. `energy_j` is the spring's stored energy 1/2 e^T K e.
+    No inertia, friction or state-dependent gravity compensation: what a physical, pre-tensioned spring of
+    the same K, D would apply. Both parts are conservative (the damper dissipates), so this element is
+    passive; `energy_j` is its stored energy 1/2 e^T K e - tau_0 . (q - q_eq).
     """
 
     name = "passive"
     actuated = False
 
-    def __init__(self, gains: SpineGains, x_d: tuple[float, float, float] | None = None) -> None:
+    def __init__(self, gains: SpineGains, x_d: tuple[float, float, float] | None = None,
+                 preload: bool = True) -> None:
         self.kinematics = TaskKinematics()
+        model = self.kinematics.model
+        q_eq = np.array(P.Q_EQUILIBRIUM, dtype=float)
+        self.q_eq = q_eq[1:].copy()
+        self.tau0 = model.gravity(model.create_data(), q_eq)[1:].copy() if preload else np.zeros(3)
         self.x, self.dx = self.kinematics.x, self.kinematics.dx
         self.K = np.array(gains.k, dtype=float)
         self.D = np.array(gains.d, dtype=float)
@@ -98,8 +106,8 @@ class PassiveSpine:
         np.subtract(self.x_d, self.x, out=e)
         e[2] = (e[2] + np.pi) % (2 * np.pi) - np.pi
         f = self.K * e - self.D * self.dx
-        self.tau[:] = self.kinematics.data.J_act.T @ f
-        self.energy_j = 0.5 * float(e @ (self.K * e))
+        self.tau[:] = self.kinematics.data.J_act.T @ f + self.tau0
+        self.energy_j = 0.5 * float(e @ (self.K * e)) - float(self.tau0 @ (np.asarray(q[1:]) - self.q_eq))
         return self.tau
 
 

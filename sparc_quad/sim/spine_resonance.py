@@ -41,7 +41,7 @@ def spine_natural_frequency_hz(k_x: float, k_z: float = float(P.K_DEFAULT[1]),
         for j, qj in zip(world.spine_idx, q[1:], strict=True):
             pb.resetJointState(world.robot, j, float(qj), 0.0, physicsClientId=c)
         world.read()
-        spring = PassiveSpine(SpineGains(k=(k_x, k_z, k_theta), d=(0.0, 0.0, 0.0)))
+        spring = PassiveSpine(SpineGains(k=(k_x, k_z, k_theta), d=(0.0, 0.0, 0.0)), preload=False)
         hold = {k: world.leg_state(k) for k in world.legs}
         qs, dqs = np.zeros(4), np.zeros(4)
         n = round(duration_s / world.cfg.dt_s)
