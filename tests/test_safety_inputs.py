@@ -81,6 +81,6 @@ def test_motors_actions_without_terminal_need_yes(action, monkeypatch, capsys):
     monkeypatch.setattr(motors_cli, "open_bus", no_bus, raising=False)
     monkeypatch.setattr("sys.stdin", io.StringIO("n\n"))
     extra = ["--new-id", "5", "--ids", "1"] if action == "set-id" else []
-    rc = main(["motors", action, "--interface", "virtual", "--channel", "no-tty", *extra])
+    rc = main(["motors", action, "--can-interface", "virtual", "--can-channel", "no-tty", *extra])
     assert rc == 2 and not opened
     assert "--yes" in capsys.readouterr().err

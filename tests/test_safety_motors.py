@@ -84,7 +84,7 @@ def test_cli_bad_motor_config_exits_2_without_traceback(tmp_path, argv, capsys, 
 
     path = tmp_path / "motors.toml"
     path.write_text(_toml(bus="silent_timeout_s = nan"))
-    rc = main([*argv, "--interface" if argv[0] == "motors" else "--can-interface", "virtual",
+    rc = main([*argv, "--can-interface", "virtual",
                "--motor-config", str(path)])
     out = capsys.readouterr()
     assert rc == 2

@@ -5,6 +5,10 @@ Every action takes the CAN options spelled as on `spine-node --motors can` (`--c
 `.blf`, `.log`, `.csv` by suffix). Motor ids come from `--ids`
 or from the per-joint config (`--motor-config`, default the packaged motors.toml).
 
+`watchdog` is the fallback for motors whose own CAN timeout cannot be set: it watches the node's frames on
+the bus and sends stop frames to every motor when they stop while the motors run (see
+`spine_module.buses.cybergear.watchdog`).
+
 `emulate` answers as motors `--ids` on the bus until SIGINT/SIGTERM: `--plant free` (an inertia per motor,
 real time) or `--plant bench` (the pybullet bench spine), `--lockstep` to step the plant once per full set
 of commands instead of in real time.
@@ -20,12 +24,12 @@ import threading
 
 from sparc_quad.cli.args import add_can_options, in_range, positive_float
 
-ACTIONS = ("scan", "status", "enable", "disable", "zero", "set-id", "emulate")
+ACTIONS = ("scan", "status", "enable", "disable", "zero", "set-id", "emulate", "watchdog")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("motors", help="CyberGear motors on CAN: scan, status, enable, disable, zero, set-id, "
-                                      "emulate")
+                                      "emulate, watchdog")
     p.add_argument("action", choices=ACTIONS)
     add_can_options(p)
     p.add_argument("--host-id", type=_can_id, default=None,
@@ -41,7 +45,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="emulate: physics behind the motors")
     p.add_argument("--lockstep", action="store_true", help="emulate: one plant step per full command set")
     p.add_argument("--duration", type=positive_float, default=None,
-                   help="emulate: stop after this many seconds")
+                   help="emulate, watchdog: stop after this many seconds")
+    p.add_argument("--deadline", type=positive_float, default=None,
+                   help="watchdog: stop the motors after this long without a host frame (s; default: the "
+                        "config's can_timeout_s, or 0.05 if that is 0)")
     p.set_defaults(func=run)
 
 
@@ -78,6 +85,8 @@ def run(args: argparse.Namespace) -> int:
     ids = _ids(args, cfg)
     if args.action == "emulate":
         return _emulate(args, ids, host, cfg, bitrate)
+    if args.action == "watchdog":
+        return _watchdog(args, ids, host, cfg, bitrate)
     if args.action in ("enable", "zero", "set-id") and not args.yes:
         if not sys.stdin.isatty():  # a pipe or a script cannot answer the question: refuse, act on --yes only
             print(f"motors {args.action}: stdin is not a terminal, so nobody can confirm; pass --yes to "
@@ -178,9 +187,41 @@ def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: 
         print(json.dumps({"can_timeout_trips": [
             {"motor": i, "can_timeout_s": emu.motors[i].can_timeout_s() if i in emu.motors else None,
              "last_frame_s": t0, "tripped_s": t1, "last_torque_s": emu.motors[i].last_torque_s}
-            for i, t0, t1 in emu.timeout_trips]}), flush=True)
+            for i, t0, t1 in emu.timeout_trips],
+            "motors": {i: {"mode": int(m.mode), "last_frame_s": m.last_rx_s, "last_torque_s": m.last_torque_s}
+                       for i, m in emu.motors.items()}, "clock_s": emu.clock()}), flush=True)
     finally:
         bus.shutdown()
         if world is not None:
             world.close()
+    return 0
+
+
+def _watchdog(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: int) -> int:
+    import can
+
+    from spine_module.buses.cybergear.driver import open_bus
+    from spine_module.buses.cybergear.watchdog import StopWatchdog
+
+    deadline = args.deadline if args.deadline is not None else (cfg.can_timeout_s or 0.05)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: stop.set())
+    bus = open_bus(args.can_interface, args.can_channel, bitrate)
+    dog = StopWatchdog(bus, ids, host, deadline)
+    notifier = can.Notifier(bus, [dog.on_message], timeout=0.05)
+    print(f"watchdog: motor(s) {ids} on {args.can_interface}:{args.can_channel}, "
+          f"deadline {deadline * 1e3:g} ms", flush=True)
+    try:
+        timer = threading.Timer(args.duration, stop.set) if args.duration else None
+        if timer:
+            timer.start()
+        dog.run(stop)
+        if timer:
+            timer.cancel()
+    finally:
+        notifier.stop()
+        bus.shutdown()
+    print(json.dumps({"watchdog_fired": [{"last_host_frame_s": a, "fired_s": b} for a, b in dog.fired]}),
+          flush=True)
     return 0

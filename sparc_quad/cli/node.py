@@ -308,7 +308,8 @@ def run_node(args: argparse.Namespace) -> int:
                "achieved_rate_hz": res.achieved_rate_hz,
                "jitter_max_s": res.jitter_max_s, "overruns": res.overruns, "rejected": node.rejected_count,
                "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
-               "repeated_ticks": node.repeated_ticks}
+               "repeated_ticks": node.repeated_ticks,
+               "bus_faults": list(getattr(bus, "latched_faults", []))}  # latched in the motor backend
     print(json.dumps(summary))
     if args.summary is not None:
         args.summary.parent.mkdir(parents=True, exist_ok=True)
