@@ -309,7 +309,10 @@ def run_node(args: argparse.Namespace) -> int:
                "jitter_max_s": res.jitter_max_s, "overruns": res.overruns, "rejected": node.rejected_count,
                "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
                "repeated_ticks": node.repeated_ticks,
-               "bus_faults": list(getattr(bus, "latched_faults", []))}  # latched in the motor backend
+               "bus_faults": list(getattr(bus, "latched_faults", [])),  # latched in the motor backend
+               # messages superseded by a newer one before the node looked (a flood shows here)
+               "dropped": {**io.inbox.dropped, **({"SPARC_MOTOR_FEEDBACK": bus.dropped}
+                                                  if hasattr(bus, "dropped") else {})}}
     print(json.dumps(summary))
     if args.summary is not None:
         args.summary.parent.mkdir(parents=True, exist_ok=True)

@@ -18,11 +18,17 @@ import lcm
 from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
 from spine_module.messages import channels, codec
 
+# Each receive() dispatches at most this many LCM messages: with a shared handle, a flood on another channel
+# (thousands of queued commands) would otherwise be drained, message by message, inside one receive.
+MAX_MESSAGES_PER_RECEIVE = 64
+QUEUE_CAPACITY = 16  # per subscription, for LCM's UDP provider (LCM drops what does not fit)
+
 
 class LcmMotorBus(MotorBus):
     def __init__(self, url: str = "", lc: lcm.LCM | None = None,
                  command_channel: str = channels.MOTOR_COMMAND,
-                 feedback_channel: str = channels.MOTOR_FEEDBACK) -> None:
+                 feedback_channel: str = channels.MOTOR_FEEDBACK,
+                 max_messages: int = MAX_MESSAGES_PER_RECEIVE) -> None:
         try:
             self.lc = lc if lc is not None else lcm.LCM(url)
         except (OSError, RuntimeError) as exc:
@@ -33,6 +39,9 @@ class LcmMotorBus(MotorBus):
         self._last_feedback_seq = -1
         self.dropped = 0  # feedback superseded before the node read it
         self._sub = self.lc.subscribe(feedback_channel, self._on_feedback)
+        self._sub.set_queue_capacity(QUEUE_CAPACITY)
+        self.max_messages = max_messages
+        self.handled_last = 0  # LCM messages the last receive() dispatched (<= max_messages)
 
     def _on_feedback(self, channel: str, data: bytes) -> None:
         try:
@@ -52,14 +61,19 @@ class LcmMotorBus(MotorBus):
             raise MotorBusError(f"LCM publish on {self.command_channel} failed: {exc}") from exc
 
     def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
+        """Newest feedback, dispatching at most `max_messages` LCM messages (of any channel on the shared
+        handle) and waiting at most `timeout_s`; None if no feedback got through."""
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
-        while self._newest is None and self._error is None:
+        n = 0
+        while self._newest is None and self._error is None and n < self.max_messages:
             remaining = 1.0 if deadline is None else deadline - time.monotonic()
             if remaining <= 0:
                 if self.lc.handle_timeout(0) <= 0:
                     break
+                n += 1
                 continue
-            self.lc.handle_timeout(max(1, int(remaining * 1000)))
+            n += self.lc.handle_timeout(max(1, int(remaining * 1000))) > 0
+        self.handled_last = n
         if self._error is not None:
             err, self._error = self._error, None
             raise MotorBusError(str(err)) from err

@@ -30,6 +30,15 @@ _INCOMING = {
 }
 
 
+# A flood on one channel must not stall the loop (issue 10): each poll handles at most this many messages
+# and spends at most POLL_BUDGET_S; what is left waits in LCM's queue for the next tick. With LCM's UDP
+# provider each subscription's own queue also holds at most QUEUE_CAPACITY messages (LCM drops the rest
+# before they reach Python); only the newest message per channel is used, the others count as dropped.
+MAX_MESSAGES_PER_POLL = 32
+POLL_BUDGET_S = 0.0005
+QUEUE_CAPACITY = 16
+
+
 class Inbox:
     """Newest valid message per channel since the node last looked, plus the rejects.
 
@@ -43,6 +52,7 @@ class Inbox:
         self.reset_requested = False
         self.rejects: deque[MessageError] = deque(maxlen=64)
         self.received = 0
+        self.dropped: dict[str, int] = dict.fromkeys(_INCOMING, 0)  # superseded before the node looked
 
     def offer_bytes(self, channel: str, data: bytes) -> None:
         decode = _INCOMING.get(channel)
@@ -55,11 +65,14 @@ class Inbox:
             self.rejects.append(exc)
             return
         if channel == channels.TORSO_STATE:
+            self.dropped[channel] += self.torso is not None
             self.torso = msg
         elif channel == channels.SPINE_COMMAND:
+            self.dropped[channel] += self.command is not None
             self.command = msg
             self.reset_requested |= msg.reset
         else:
+            self.dropped[channel] += self.heartbeat is not None
             self.heartbeat = msg
 
     def take(self) -> tuple:
@@ -130,12 +143,20 @@ class LcmNodeIO(NodeIO):
         super().__init__()
         self.lc = lc
         self._subs = [lc.subscribe(ch, self.inbox.offer_bytes) for ch in _INCOMING]
+        for sub in self._subs:
+            sub.set_queue_capacity(QUEUE_CAPACITY)
         self.publish_errors = 0
+        self.handled_last_poll = 0  # messages the last poll dispatched (<= MAX_MESSAGES_PER_POLL)
 
     def poll(self) -> None:
-        deadline = time.monotonic() + 0.0005  # never let a flood starve the loop
-        while self.lc.handle_timeout(0) > 0 and time.monotonic() < deadline:
-            pass
+        """Dispatch what has arrived, bounded in count and time (a flood waits for the next tick)."""
+        deadline = time.perf_counter() + POLL_BUDGET_S
+        n = 0
+        while n < MAX_MESSAGES_PER_POLL and self.lc.handle_timeout(0) > 0:
+            n += 1
+            if time.perf_counter() >= deadline:
+                break
+        self.handled_last_poll = n
 
     def _publish(self, channel: str, data: bytes) -> None:
         try:
