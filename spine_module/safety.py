@@ -174,9 +174,21 @@ def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, res
 def clamp_torque(tau: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
     """Clamp to +-limit; non-finite entries become 0 and count as saturated. Returns (tau, saturated)."""
     tau = np.asarray(tau, dtype=float)
-    finite = np.isfinite(tau)
-    out = np.clip(np.where(finite, tau, 0.0), -limit, limit)
-    return out, (~finite) | (np.abs(tau) > limit)
+    out, sat = clamp_torque_list(tau.reshape(-1).tolist(), limit)
+    return np.array(out).reshape(tau.shape), np.array(sat, dtype=bool).reshape(tau.shape)
+
+
+def clamp_torque_list(tau: list[float], limit: float) -> tuple[list[float], list[bool]]:
+    """`clamp_torque` on plain floats (the node's 1 kHz path: three numbers, no numpy temporaries)."""
+    out, sat = [], []
+    for t in tau:
+        if not math.isfinite(t):
+            out.append(0.0)
+            sat.append(True)
+        else:
+            out.append(limit if t > limit else -limit if t < -limit else t)
+            sat.append(abs(t) > limit)
+    return out, sat
 
 
 def damping_torque(dq: np.ndarray, c: float) -> np.ndarray:
@@ -190,9 +202,21 @@ def joint_limit_damping(q: np.ndarray, dq: np.ndarray, lower: np.ndarray, upper:
 
     The coefficient grows linearly from 0 at the margin's edge to `c` at the limit (and stays `c`
     beyond it). Returns (tau to add, active mask)."""
-    q, dq = np.asarray(q, dtype=float), np.asarray(dq, dtype=float)
-    depth_hi = np.clip((q - (upper - margin)) / margin, 0.0, 1.0)
-    depth_lo = np.clip(((lower + margin) - q) / margin, 0.0, 1.0)
-    towards = np.where(dq > 0, depth_hi, depth_lo)
-    active = (depth_hi > 0) | (depth_lo > 0)
-    return -c * towards * dq, active
+    q, dq, lower, upper = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (q, dq, lower, upper)))
+    extra, active = joint_limit_damping_list(q.reshape(-1).tolist(), dq.reshape(-1).tolist(),
+                                             lower.reshape(-1).tolist(), upper.reshape(-1).tolist(),
+                                             margin, c)
+    return np.array(extra).reshape(q.shape), np.array(active, dtype=bool).reshape(q.shape)
+
+
+def joint_limit_damping_list(q: list[float], dq: list[float], lower: list[float], upper: list[float],
+                             margin: float, c: float) -> tuple[list[float], list[bool]]:
+    """`joint_limit_damping` on plain floats (the node's 1 kHz path)."""
+    extra, active = [], []
+    for qi, dqi, lo, hi in zip(q, dq, lower, upper, strict=True):
+        depth_hi = min(1.0, max(0.0, (qi - (hi - margin)) / margin))
+        depth_lo = min(1.0, max(0.0, ((lo + margin) - qi) / margin))
+        towards = depth_hi if dqi > 0 else depth_lo
+        extra.append(-c * towards * dqi)
+        active.append(depth_hi > 0 or depth_lo > 0)
+    return extra, active

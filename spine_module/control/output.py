@@ -48,11 +48,21 @@ def load_compiled_step(backend: str) -> object | None:
     return spine_step
 
 
-def _vec3(value: object, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+def _vec3(value: object, name: str) -> list[float]:
+    """Three finite floats (set every 1 kHz tick by the node: plain floats, no numpy temporaries)."""
+    try:
+        if isinstance(value, np.ndarray) and value.dtype == np.float64:
+            vals = value.reshape(-1).tolist()
+        elif type(value) is list:
+            vals = [float(v) for v in value]
+        else:
+            vals = np.asarray(value, dtype=float).reshape(-1).tolist()
+    except (TypeError, ValueError):
+        vals = None
+    if vals is None or len(vals) != 3 or not (math.isfinite(vals[0]) and math.isfinite(vals[1])
+                                               and math.isfinite(vals[2])):
         raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
-    return arr
+    return vals
 
 
 class TaskController:
@@ -99,12 +109,12 @@ class TaskController:
         """K = diag(k_x N/m, k_z N/m, k_theta N*m/rad), D = diag(d_x N*s/m, d_z N*s/m, d_theta N*m*s/rad)."""
         if k is not None:
             k = _vec3(k, "K")
-            if np.any(k < 0):
+            if min(k) < 0:
                 raise ValueError(f"K must be non-negative, got {k}")
             self.K[:] = k
         if d is not None:
             d = _vec3(d, "D")
-            if np.any(d < 0):
+            if min(d) < 0:
                 raise ValueError(f"D must be non-negative, got {d}")
             self.D[:] = d
 

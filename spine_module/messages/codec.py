@@ -120,14 +120,51 @@ def _check_value(channel: str, label: str, v: float, r: Range) -> None:
         raise MessageError(channel, label, f"{v:.6g} outside [{r.lo:.6g}, {r.hi:.6g}] {r.unit}".rstrip())
 
 
-def _check_fields(channel: str, msg: object, ranges: dict) -> None:
-    for name, r in ranges.items():
-        value = getattr(msg, name)
-        if isinstance(value, (list, tuple)):
-            for i, v in enumerate(value):
-                _check_value(channel, f"{name}[{i}]", float(v), r[i] if isinstance(r, list) else r)
-        else:
-            _check_value(channel, name, float(value), r)
+class _Checker:
+    """All numeric fields of one message type checked at once: the values are gathered into one float
+    vector and compared with precomputed bounds in one vectorised pass (NaN fails both comparisons).
+    Only when something fails is the first bad field found and named, with `_check_value`'s message."""
+
+    def __init__(self, ranges: dict, sizes: dict[str, int]) -> None:
+        self.names = tuple(ranges)
+        labels, rows = [], []
+        for name, r in ranges.items():
+            n = sizes.get(name, 1)
+            per = r if isinstance(r, list) else [r] * n
+            if name in sizes:
+                labels += [f"{name}[{i}]" for i in range(n)]
+            else:
+                labels.append(name)
+            rows += per
+        self.labels = tuple(labels)
+        self.ranges = tuple(rows)
+        self.lo = np.array([r.lo for r in rows])
+        self.hi = np.array([r.hi for r in rows])
+        self.nan_ok = np.array([r.nan_ok for r in rows])
+        self.any_nan_ok = bool(self.nan_ok.any())
+        self._in = np.empty(len(rows), dtype=bool)
+        self._tmp = np.empty(len(rows), dtype=bool)
+
+    def values(self, msg: object) -> np.ndarray:
+        vals: list = []
+        for name in self.names:
+            v = getattr(msg, name)
+            if isinstance(v, (list, tuple)):
+                vals += v
+            else:
+                vals.append(v)
+        return np.array(vals, dtype=float)
+
+    def check(self, channel: str, v: np.ndarray) -> None:
+        ok = np.greater_equal(v, self.lo, out=self._in)
+        ok &= np.less_equal(v, self.hi, out=self._tmp)
+        if self.any_nan_ok:
+            ok |= np.isnan(v, out=self._tmp) & self.nan_ok
+        if ok.all():
+            return
+        i = int(np.argmin(ok))
+        _check_value(channel, self.labels[i], float(v[i]), self.ranges[i])
+        raise MessageError(channel, self.labels[i], f"{v[i]!r} rejected")  # not reached: _check_value raised
 
 
 def _check_header(channel: str, msg: object) -> None:
@@ -135,6 +172,20 @@ def _check_header(channel: str, msg: object) -> None:
         raise MessageError(channel, "seq", f"{msg.seq} is negative")
     if msg.utime < 0:
         raise MessageError(channel, "utime", f"{msg.utime} is negative")
+
+
+def _sizes(cls: type, ranges: dict) -> dict[str, int]:
+    """Array lengths of the fields in `ranges`, read from a default-constructed generated LCM object."""
+    m = cls()
+    return {name: len(getattr(m, name)) for name in ranges if isinstance(getattr(m, name), (list, tuple))}
+
+
+_TORSO_NO_DDQ1 = {k: v for k, v in TORSO_RANGES.items() if k != "ddq1"}
+TORSO_CHECK = _Checker(TORSO_RANGES, _sizes(torso_state_t, TORSO_RANGES))
+TORSO_CHECK_NO_DDQ1 = _Checker(_TORSO_NO_DDQ1, _sizes(torso_state_t, _TORSO_NO_DDQ1))
+COMMAND_CHECK = _Checker(COMMAND_RANGES, _sizes(spine_command_t, COMMAND_RANGES))
+FEEDBACK_CHECK = _Checker(FEEDBACK_RANGES, _sizes(motor_feedback_t, FEEDBACK_RANGES))
+MOTOR_COMMAND_CHECK = _Checker(MOTOR_COMMAND_RANGES, _sizes(motor_command_t, MOTOR_COMMAND_RANGES))
 
 
 # --- raw decode -------------------------------------------------------------------------------------
@@ -179,13 +230,17 @@ def _us(stamp_s: float) -> int:
 def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
     m = decode_raw(channel, data, torso_state_t)
     _check_header(channel, m)
-    ranges = TORSO_RANGES if m.ddq1_valid else {k: v for k, v in TORSO_RANGES.items() if k != "ddq1"}
-    _check_fields(channel, m, ranges)
-    norm = math.sqrt(sum(c * c for c in m.quat))
+    check = TORSO_CHECK if m.ddq1_valid else TORSO_CHECK_NO_DDQ1
+    v = check.values(m)  # q1, dq1, [ddq1], quat (4), omega (3)
+    check.check(channel, v)
+    w, x, y, z = m.quat
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
     if not 0.9 <= norm <= 1.1:
         raise MessageError(channel, "quat", f"norm {norm:.6g} is not 1")
+    quat = v[-7:-3]
+    quat /= norm
     return TorsoState(q1=m.q1, dq1=m.dq1, ddq1=m.ddq1 if m.ddq1_valid else 0.0, ddq1_valid=bool(m.ddq1_valid),
-                      quat=np.array(m.quat) / norm, omega=np.array(m.omega), stamp_s=_s(m.utime), seq=m.seq)
+                      quat=quat, omega=v[-3:], stamp_s=_s(m.utime), seq=m.seq)
 
 
 _ALL_FAULTS = int(sum(f.value for f in Fault if f.value and (f.value & (f.value - 1)) == 0))
@@ -203,10 +258,11 @@ def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineC
     m = decode_raw(channel, data, spine_command_t)
     _check_header(channel, m)
     mode = _mode(channel, "mode", m.mode)
-    _check_fields(channel, m, COMMAND_RANGES)
-    return SpineCommand(mode=mode, x_d=np.array(m.x_d), dx_d=np.array(m.dx_d), ddx_d=np.array(m.ddx_d),
-                        k=np.array(m.k), d=np.array(m.d), friction_compensation=bool(m.friction_compensation),
-                        tau_ff=np.array(m.tau_ff), reset=bool(m.reset), stamp_s=_s(m.utime), seq=m.seq)
+    v = COMMAND_CHECK.values(m)  # x_d, dx_d, ddx_d, k, d, tau_ff: 3 each, one array, views below
+    COMMAND_CHECK.check(channel, v)
+    return SpineCommand(mode=mode, x_d=v[0:3], dx_d=v[3:6], ddx_d=v[6:9], k=v[9:12], d=v[12:15],
+                        friction_compensation=bool(m.friction_compensation), tau_ff=v[15:18],
+                        reset=bool(m.reset), stamp_s=_s(m.utime), seq=m.seq)
 
 
 def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> Heartbeat:
@@ -219,7 +275,7 @@ def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> He
 def decode_motor_feedback(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -> MotorFeedback:
     m = decode_raw(channel, data, motor_feedback_t)
     _check_header(channel, m)
-    _check_fields(channel, m, FEEDBACK_RANGES)
+    FEEDBACK_CHECK.check(channel, FEEDBACK_CHECK.values(m))
     for i, mode in enumerate(m.mode):
         if mode not in (0, 1, 2):
             raise MessageError(channel, f"mode[{i}]", f"{mode} is not a motor mode (0 reset, 1 cal, 2 run)")
@@ -233,7 +289,7 @@ def decode_motor_command(data: bytes, channel: str = channels.MOTOR_COMMAND) -> 
     """Returns (command, feedback_seq it answers; -1 if none)."""
     m = decode_raw(channel, data, motor_command_t)
     _check_header(channel, m)
-    _check_fields(channel, m, MOTOR_COMMAND_RANGES)
+    MOTOR_COMMAND_CHECK.check(channel, MOTOR_COMMAND_CHECK.values(m))
     cmd = MotorCommand(tau_ff=np.array(m.torque), q_des=np.array(m.position), dq_des=np.array(m.velocity),
                        kp=np.array(m.kp), kd=np.array(m.kd), enable=bool(m.enable), stamp_s=_s(m.utime),
                        seq=m.seq)

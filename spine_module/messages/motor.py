@@ -7,7 +7,7 @@ the gearbox, in the joint's sign convention.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -21,8 +21,10 @@ class _Copyable:
     of `copy.deepcopy`'s cost (the in-process bus copies twice per 1 kHz tick)."""
 
     def copy(self):
-        return replace(self, **{f.name: v.copy() for f in fields(self)
-                                if isinstance(v := getattr(self, f.name), np.ndarray)})
+        new = object.__new__(type(self))  # plain dataclasses: every field lives in __dict__
+        new.__dict__.update({k: v.copy() if isinstance(v, np.ndarray) else v
+                             for k, v in self.__dict__.items()})
+        return new
 
 
 @dataclass

@@ -8,6 +8,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import deque
+from collections.abc import Iterator, Sequence
 
 import lcm
 
@@ -103,13 +104,37 @@ class NodeIO:
         pass
 
 
+class DecodedStates(Sequence):
+    """Spine states kept as the bytes the node published (bounded), decoded when read: the receiver's
+    decoding is not charged to the node's 1 kHz tick."""
+
+    def __init__(self, keep: int) -> None:
+        self._raw: deque[bytes] = deque(maxlen=keep)
+
+    def append_bytes(self, data: bytes) -> None:
+        self._raw.append(data)
+
+    def __len__(self) -> int:
+        return len(self._raw)
+
+    def __getitem__(self, i):  # type: ignore[override]
+        if isinstance(i, slice):
+            return [codec.decode_state(b) for b in list(self._raw)[i]]
+        return codec.decode_state(self._raw[i])
+
+    def __iter__(self) -> Iterator[SpineState]:
+        for b in list(self._raw):
+            yield codec.decode_state(b)
+
+
 class InProcessNodeIO(NodeIO):
     """For a robot in the same process: it calls `deliver`; the node's outputs are kept (bounded) and
-    passed to an optional callback. Messages are encoded and decoded like on the wire."""
+    passed to an optional callback. Messages are encoded and decoded like on the wire (spine states are
+    decoded when read, or at once for `on_state`)."""
 
     def __init__(self, keep: int = 100_000, on_state=None) -> None:
         super().__init__()
-        self.states: deque[SpineState] = deque(maxlen=keep)
+        self.states = DecodedStates(keep)
         self.heartbeats: deque[Heartbeat] = deque(maxlen=keep)
         self.on_state = on_state
 
@@ -126,10 +151,10 @@ class InProcessNodeIO(NodeIO):
         self.deliver(channels.HEARTBEAT_ROBOT, codec.encode_heartbeat(h))
 
     def publish_state(self, state: SpineState) -> None:
-        state = codec.decode_state(codec.encode_state(state))
-        self.states.append(state)
+        data = codec.encode_state(state)
+        self.states.append_bytes(data)
         if self.on_state is not None:
-            self.on_state(state)
+            self.on_state(codec.decode_state(data))
 
     def publish_heartbeat(self, hb: Heartbeat) -> None:
         self.heartbeats.append(hb)
