@@ -194,3 +194,20 @@ def test_raibert_opt_tunes_then_runs_and_a_tuned_gait_skips_the_search():
     assert again["cot_pos"] == m["cot_pos"]
     with pytest.raises(ValueError, match="tuned"):
         run_trial({**cfg, "tuned": {"wobble": 1.0}})
+
+
+def test_a_trial_that_falls_early_reports_every_metric_as_nan_and_stops_measuring_at_the_fall():
+    cfg = {"gait": "raibert", "duration": 0.6, "settle": 0.0}
+    import sparc_quad.sim.bound_run as br
+
+    real = br.fall_reason
+    try:
+        br.fall_reason = lambda world, pf: "scripted" if world.steps >= 50 else None
+        with pytest.warns(RuntimeWarning):
+            m = run_trial(cfg)
+    finally:
+        br.fall_reason = real
+    missing = [k for k in HEADLINE if k not in m]
+    assert not missing, missing
+    assert m["fell"] and m["fall_reason"] == "scripted" and math.isnan(m["cot_pos"])
+    assert math.isnan(m["mean_speed_m_s"]) and m["strides"] == []

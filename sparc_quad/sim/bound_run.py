@@ -261,10 +261,12 @@ def run_bound(
         world.close()
         spine.close()
     series = log[:i]
-    metrics = compute_metrics(series, cfg, mass, fell, fall_t, first_reason)
+    # metrics end at the first fall: what a fallen robot does afterwards (stop_on_fall=False) is no gait
+    measured = series[: max(1, round(fall_t / dt))] if fell and fall_t is not None else series
+    metrics = compute_metrics(measured, cfg, mass, fell, fall_t, first_reason)
     drive = getattr(spine, "drive", None)
     actuated = bool(getattr(drive, "actuated", True))  # the node and LCM paths are motor-rendered
-    metrics.update(gait_metrics.study_metrics(series, cfg, mass, actuated=actuated,
+    metrics.update(gait_metrics.study_metrics(measured, cfg, mass, actuated=actuated,
                                               t_start=metrics["window_s"][0]))
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall

@@ -71,6 +71,25 @@ def stride_starts(phase_cycles: np.ndarray) -> np.ndarray:
     return np.flatnonzero(np.diff(phase_cycles) < -0.5) + 1
 
 
+_BLOCK_KEYS = (
+    *(f"cot_{c}_{g}" for c in COTS for g in GROUPS), *(f"power_{c}_{g}_w" for c in COTS for g in GROUPS),
+    "cot_pos", "cot_abs", "cot_net", "cot_elec", "duration_s", "distance_m", "speed_m_s", "spine_work_j",
+    "spine_work_plus_spring_energy_change_j", "duty_mean", "duty_hind", "duty_front", "flight_time_s",
+    "spine_x_amplitude_m", "spine_theta_amplitude_rad",
+)
+_TRIAL_KEYS = (
+    "window_length_s", "stride_frequency_hz", "stride_length_m", "spine_work_per_stride_j",
+    "commanded_gait_frequency_hz", "spine_x_dominant_hz", "spine_theta_dominant_hz",
+    "spine_x_dominant_over_gait", "peak_leg_torque_nm", "leg_saturation_share", "peak_spine_torque_nm",
+    "spine_torque_rms_nm", "spine_saturation_share",
+)
+
+
+def empty_metrics() -> dict:
+    """Every trial-level metric as NaN: what a trial without a steady window reports."""
+    return dict.fromkeys((*_BLOCK_KEYS, *_TRIAL_KEYS), float("nan"))
+
+
 def _columns():
     from sparc_quad.sim.bound_run import COLUMNS, LEG_JOINTS
 
@@ -84,11 +103,9 @@ def study_metrics(s: np.ndarray, cfg, mass: float, actuated: bool, t_start: floa
     dt = cfg.world.dt_s
     g = P.GRAVITY_M_S2
     nan = float("nan")
-    out: dict = {"window_ok": False, "n_strides": 0}
+    out: dict = {**empty_metrics(), "window_ok": False, "n_strides": 0, "spine_actuated": actuated}
     if len(s) == 0:
-        out["warning"] = "no samples"
-        out["strides"] = []
-        return out
+        return _no_window(out, "no samples")
     t = s[:, idx["t"]]
     w = np.flatnonzero(t >= t_start)
     tau_legs = s[:, idx["tau_HL_haa"]: idx["tau_HL_haa"] + len(leg_joints)]
@@ -139,9 +156,8 @@ def study_metrics(s: np.ndarray, cfg, mass: float, actuated: bool, t_start: floa
         return m
 
     if len(w) < 2:
-        out["warning"] = "window has no samples: trial shorter than its start-up"
-        out["strides"] = []
-        return out
+        return _no_window(out, "steady window is empty (0 complete strides): the trial ended or fell "
+                               "before its start-up was over")
     a, b = int(w[0]), len(s)
     whole = block(a, b)
     strides = []
@@ -189,6 +205,13 @@ def study_metrics(s: np.ndarray, cfg, mass: float, actuated: bool, t_start: floa
     out["spine_saturation_share"] = float((ts >= P.TORQUE_LIMIT_NM - 1e-6).any(axis=1).mean())
     out["spine_actuated"] = actuated
     out["strides"] = strides
+    return out
+
+
+def _no_window(out: dict, msg: str) -> dict:
+    out["warning"] = msg
+    out["strides"] = []
+    warnings.warn(msg, RuntimeWarning, stacklevel=3)
     return out
 
 

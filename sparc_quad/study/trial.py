@@ -150,6 +150,8 @@ def run_trial(config: dict) -> dict:
     result = run_bound(cfg)
     m = result.metrics
     out = _flat({k: v for k, v in m.items() if k != "strides"})
+    for key in ("mean_speed_m_s", "distance_m", "cost_of_transport"):  # absent when the window was empty
+        out.setdefault(key, float("nan"))
     out["strides"] = m.get("strides", [])
     out.update(perturbation(int(config.get("seed", 0))).as_metrics())
     out["gait"] = config.get("gait", "raibert")
