@@ -227,7 +227,11 @@ def optima(cells: list[Cell], n_boot: int = 2000) -> list[dict]:
         if c.spine not in BASELINES:
             key[(c.panel, c.spine, c.metric)].append(c)
     for (panel, spine, metric), cs in key.items():
-        good = [c for c in cs if c.n_fell == 0 and c.est is not None]
+        # a cell that falls more often is worse whatever its CoT: rank CoT among the cells with the fewest
+        # falls (their CoT over the seeds that did not fall)
+        rated = [c for c in cs if c.est is not None]
+        fewest = min((c.n_fell / c.n for c in rated), default=None)
+        good = [c for c in rated if c.n_fell / c.n == fewest]
         if not good:
             out.append({"panel": panel, "spine": spine, "metric": metric, "best": None})
             continue
@@ -335,8 +339,11 @@ def plot_heatmap(panel: dict, metric: str, cells: list[Cell], path: Path) -> Pat
             dark = c.diff_pct is not None and abs(c.diff_pct.value) > 0.6 * lim
             ax.text(j, i, "\n".join(lines), ha="center", va="center", fontsize=8, color="w" if dark else "k")
             if c.hatched:
+                hatch = ("xx" if c.n_fell else "") + (
+                    "///" if c.diff_pct is None or c.diff_pct.overlaps(0.0) else ""
+                )
                 ax.add_patch(
-                    Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="///", edgecolor="0.45", lw=0)
+                    Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch=hatch, edgecolor="0.45", lw=0)
                 )
         ax.set_xticks(range(len(ks)), [_fmt(k, 0) for k in ks])
         ax.set_yticks(range(len(ds)), [_fmt(d, 0) for d in ds])
@@ -354,7 +361,7 @@ def plot_heatmap(panel: dict, metric: str, cells: list[Cell], path: Path) -> Pat
     )
     fig.suptitle(
         f"{panel['panel']}: {_label(metric)}\n{btxt}\ncell: mean, % vs rigid [95 % CI], mean speed; "
-        "hatched: a trial fell or the CI contains 0",
+        "hatched: xx a trial fell, /// the CI of the difference contains 0",
         fontsize=9,
     )
     fig.savefig(path, dpi=110)
