@@ -84,3 +84,48 @@ def test_motors_actions_without_terminal_need_yes(action, monkeypatch, capsys):
     rc = main(["motors", action, "--can-interface", "virtual", "--can-channel", "no-tty", *extra])
     assert rc == 2 and not opened
     assert "--yes" in capsys.readouterr().err
+
+
+_FRICTION = {"tau_c_nm": 0.05, "tau_s_nm": 0.08, "b_nm_s_rad": 0.01, "dq_s_rad_s": 0.05, "alpha": 2.0,
+             "beta_s_rad": 50.0}
+
+
+@pytest.mark.parametrize("doc,needle", [
+    ('{"armature_kg_m2": -1e-4}', "armature_kg_m2 must be >= 0, got -0.0001"),
+    ('{"armature_kg_m2": NaN}', "armature_kg_m2 must be finite"),
+    ('{"armature_kg_m2": "big"}', "armature_kg_m2 must be a number"),
+    (json.dumps({"friction": {**_FRICTION, "tau_c_nm": -0.1}}), "friction.tau_c_nm must be >= 0"),
+    (json.dumps({"friction": {**_FRICTION, "beta_s_rad": 0}}), "friction.beta_s_rad must be > 0"),
+    (json.dumps({"friction": {k: v for k, v in _FRICTION.items() if k != "alpha"}}),
+     "friction: missing alpha"),
+    (json.dumps({"friction": {**_FRICTION, "coulomb": 1}}), "friction: unknown key 'coulomb'"),
+    ('{"sensors": {"torque_noise_nm": Infinity}}', "sensors.torque_noise_nm must be finite"),
+    ('{"quantise": "yes"}', "quantise must be true or false"),
+    ('{"armature": 0.001}', "unknown plant keys ['armature']"),
+    ('{"effects": [1, 2]}', "effects must be an object or null"),
+    ("[1, 2, 3]", "the top level must be a JSON object, got list"),
+    ("{not json", "not a usable plant file"),
+])
+def test_bench_plant_file_errors_name_file_and_field_exit_2(tmp_path, doc, needle, capsys):
+    from sparc_quad.cli import main
+
+    path = tmp_path / "plant.json"
+    path.write_text(doc)
+    with pytest.raises(SystemExit) as e:
+        main(["bench", "static", "--quick", "--plant", str(path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and str(path) in err and needle in err, err
+    assert "Traceback" not in err and not (tmp_path / "out").exists()
+
+
+def test_bench_plant_file_missing_and_good(tmp_path, capsys):
+    from sparc_quad.cli import main
+    from sparc_quad.sim.plant import PlantConfig
+
+    with pytest.raises(SystemExit) as e:
+        main(["bench", "static", "--plant", str(tmp_path / "nosuch.json"), "--out", str(tmp_path / "o")])
+    assert e.value.code == 2 and "cannot read the plant file" in capsys.readouterr().err
+    good = PlantConfig()
+    path = tmp_path / "plant.json"
+    path.write_text(json.dumps(good.to_json()))
+    assert PlantConfig.load(path) == good  # a file the project writes reads back unchanged

@@ -17,7 +17,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("out/bench"), help="output folder (default: %(default)s)")
     p.add_argument("--seed", type=nonnegative_int, default=0,
                    help="noise seed of the first trial (default: 0)")
-    p.add_argument("--plant", type=Path, default=None,
+    p.add_argument("--plant", type=_plant_file, default=None,
                    help="plant-model JSON (friction truth, rotor inertia, sensors) instead of the default")
     p.add_argument("--ideal-plant", action="store_true",
                    help="plant equal to the controller's model: no friction mismatch, quantisation or noise")
@@ -54,10 +54,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(extra="sim")
 
 
+def _plant_file(text: str):
+    """--plant FILE, read and checked while parsing: a bad file is a usage error (exit 2) naming the file
+    and the field, before any experiment starts."""
+    from sparc_quad.sim.plant import PlantConfig
+
+    try:
+        return PlantConfig.load(Path(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _plant(args: argparse.Namespace):
     from sparc_quad.sim.plant import PlantConfig
 
-    plant = PlantConfig.load(args.plant) if args.plant else PlantConfig()
+    plant = args.plant if args.plant is not None else PlantConfig()
     return plant.ideal() if args.ideal_plant else plant
 
 

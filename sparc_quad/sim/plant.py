@@ -12,7 +12,8 @@ that it may carry named actuator and load effects (`PlantEffects`, the gap workf
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field, replace
+import math
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 from sparc_quad.sim.plant_effects import SCHEMA as EFFECTS_SCHEMA
@@ -56,6 +57,11 @@ class PlantConfig:
 
     @classmethod
     def from_json(cls, data: dict) -> PlantConfig:
+        """From a parsed JSON object; ValueError naming the field for unknown keys, missing or extra
+        friction/sensor entries, non-numbers, NaN/inf, and negative (or zero, where it must be > 0)
+        values (a negative armature made the bench report k-hat 160 for k 500)."""
+        if not isinstance(data, dict):
+            raise ValueError(f"the top level must be a JSON object, got {type(data).__name__}")
         if data.get("schema") == EFFECTS_SCHEMA:  # a gap workflow plant.json: nominal model + effects
             return cls(friction=P.NOMINAL_FRICTION, effects=PlantEffects.from_dict(data))
         known = {"friction", "armature_kg_m2", "sensors", "quantise", "noise", "effects"}
@@ -64,17 +70,53 @@ class PlantConfig:
             raise ValueError(f"unknown plant keys {sorted(unknown)}; expected some of {sorted(known)}")
         kwargs: dict = dict(data)
         if "friction" in kwargs:
-            kwargs["friction"] = P.StribeckParams(**kwargs["friction"])
+            kwargs["friction"] = P.StribeckParams(**_numbers("friction", kwargs["friction"], P.StribeckParams,
+                                                             positive={"dq_s_rad_s", "alpha", "beta_s_rad"}))
         if "sensors" in kwargs:
-            kwargs["sensors"] = P.SensorParams(**kwargs["sensors"])
+            kwargs["sensors"] = P.SensorParams(**_numbers("sensors", kwargs["sensors"], P.SensorParams,
+                                                          positive={"position_lsb_rad", "velocity_lsb_rad_s",
+                                                                    "torque_lsb_nm"}, partial=True))
+        if "armature_kg_m2" in kwargs:
+            kwargs["armature_kg_m2"] = _number("armature_kg_m2", kwargs["armature_kg_m2"], positive=False)
+        for flag in ("quantise", "noise"):
+            if flag in kwargs and not isinstance(kwargs[flag], bool):
+                raise ValueError(f"{flag} must be true or false, got {kwargs[flag]!r}")
         if kwargs.get("effects") is not None:
+            if not isinstance(kwargs["effects"], dict):
+                raise ValueError(f"effects must be an object or null, got {type(kwargs['effects']).__name__}")
             kwargs["effects"] = PlantEffects.from_dict(kwargs["effects"])
         return cls(**kwargs)
 
     @classmethod
     def load(cls, path: Path) -> PlantConfig:
-        """Read a PlantConfig JSON or a plant-effects file; errors name the file."""
+        """Read a PlantConfig JSON or a plant-effects file; errors name the file and the field."""
         try:
-            return cls.from_json(json.loads(Path(path).read_text()))
-        except (OSError, ValueError, TypeError) as exc:
-            raise ValueError(f"{path}: not a usable plant file: {exc}") from exc
+            return cls.from_json(json.loads(Path(path).read_text(encoding="utf-8")))
+        except OSError as exc:
+            raise ValueError(f"{path}: cannot read the plant file: {exc.strerror or exc}") from None
+        except (ValueError, TypeError, KeyError, AttributeError) as exc:
+            raise ValueError(f"{path}: not a usable plant file: {exc}") from None
+
+
+def _number(name: str, v: object, positive: bool) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"{name} must be a number, got {v!r}")
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    if v < 0 or (positive and v == 0):
+        raise ValueError(f"{name} must be {'> 0' if positive else '>= 0'}, got {v}")
+    return float(v)
+
+
+def _numbers(table: str, raw: object, cls: type, positive: set[str], partial: bool = False) -> dict:
+    """The fields of dataclass `cls` from a JSON object: every one (unless `partial`), numbers >= 0."""
+    if not isinstance(raw, dict):
+        raise ValueError(f"{table} must be an object, got {type(raw).__name__}")
+    names = [f.name for f in fields(cls)]
+    unknown = [k for k in raw if k not in names]
+    if unknown:
+        raise ValueError(f"{table}: unknown key {', '.join(map(repr, unknown))} (known: {', '.join(names)})")
+    missing = [k for k in names if k not in raw]
+    if missing and not partial:
+        raise ValueError(f"{table}: missing {', '.join(missing)}")
+    return {k: _number(f"{table}.{k}", v, k in positive) for k, v in raw.items()}
