@@ -21,6 +21,7 @@ from spine_module.messages import channels, codec
 # Each receive() dispatches at most this many LCM messages: with a shared handle, a flood on another channel
 # (thousands of queued commands) would otherwise be drained, message by message, inside one receive.
 MAX_MESSAGES_PER_RECEIVE = 64
+RECEIVE_BUDGET_S = 0.0005  # and spends at most this long dispatching beyond its own timeout
 QUEUE_CAPACITY = 16  # per subscription, for LCM's UDP provider (LCM drops what does not fit)
 
 
@@ -63,11 +64,16 @@ class LcmMotorBus(MotorBus):
     def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
         """Newest feedback, dispatching at most `max_messages` LCM messages (of any channel on the shared
         handle) and waiting at most `timeout_s`; None if no feedback got through."""
-        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        t0 = time.monotonic()
+        deadline = None if timeout_s is None else t0 + timeout_s
+        budget_end = t0 + max(timeout_s or 0.0, RECEIVE_BUDGET_S)
         n = 0
         while self._newest is None and self._error is None and n < self.max_messages:
-            remaining = 1.0 if deadline is None else deadline - time.monotonic()
+            now = time.monotonic()
+            remaining = 1.0 if deadline is None else deadline - now
             if remaining <= 0:
+                if n and now >= budget_end:  # a flood on another channel: the rest waits for next tick
+                    break
                 if self.lc.handle_timeout(0) <= 0:
                     break
                 n += 1
