@@ -25,6 +25,7 @@ from sparc_quad.cli.args import (
     can_options,
     damping,
     finite_float,
+    in_range,
     nonnegative_float,
     nonnegative_int,
     positive_float,
@@ -112,6 +113,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="gain ramp-in time on entering impedance/PD mode, s (default: %(default)s)")
     p.add_argument("--state-every", type=positive_int, default=1, help="publish spine state every N ticks")
     p.add_argument("--summary", type=Path, default=None, help="write a JSON summary of the run here")
+    rt = p.add_argument_group("real time (torso computer; see README 'Running on a PREEMPT_RT kernel')")
+    rt.add_argument("--cpu", type=nonnegative_int, default=None,
+                    help="pin the node to this CPU (isolate it with isolcpus=N on the kernel command line)")
+    rt.add_argument("--rt-priority", type=in_range(1, 99, kind=int), default=None,
+                    help="run under SCHED_FIFO at this priority, 1..99 (needs root, CAP_SYS_NICE or rtprio)")
+    rt.add_argument("--lock-memory", action="store_true",
+                    help="lock the process's memory (mlockall) so no page fault stalls a tick; best effort")
     add_can_options(p)
     _experiment_args(p)
     p.set_defaults(func=run_node)
@@ -271,8 +279,16 @@ def _bus_options(args: argparse.Namespace) -> dict[str, object]:
 def run_node(args: argparse.Namespace) -> int:
     import lcm
 
-    from spine_module.node import Controllers, LcmNodeIO, SpineNode, run_lockstep, run_realtime
+    from spine_module.node import Controllers, LcmNodeIO, SpineNode, realtime, run_lockstep, run_realtime
 
+    try:
+        rt_done = realtime.apply(realtime.RtOptions(cpu=args.cpu, rt_priority=args.rt_priority,
+                                                    lock_memory=args.lock_memory))
+        for line in rt_done:
+            log.log(logging.WARNING if " not " in line else logging.INFO, "spine-node: %s", line)
+    except realtime.RtSetupError as exc:
+        log.error("%s", exc)
+        return 2
     if args.motors == "inprocess":
         return _run_node_inprocess(args)
     try:
@@ -295,6 +311,7 @@ def run_node(args: argparse.Namespace) -> int:
         io.close()
         return 1
     log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
+    rt_done.append(realtime.freeze_startup_objects())
     try:
         with _stop_on_signals() as stop:
             if args.clock == "lockstep":
@@ -306,7 +323,8 @@ def run_node(args: argparse.Namespace) -> int:
         io.close()
     summary = {"ticks": res.ticks, "elapsed_wall_s": res.elapsed_wall_s,
                "achieved_rate_hz": res.achieved_rate_hz,
-               "jitter_max_s": res.jitter_max_s, "overruns": res.overruns, "rejected": node.rejected_count,
+               "jitter_max_s": res.jitter_max_s, "overruns": res.overruns,
+               "period": node.stats.histogram.summary(), "realtime": rt_done, "rejected": node.rejected_count,
                "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
                "repeated_ticks": node.repeated_ticks,
                "bus_faults": list(getattr(bus, "latched_faults", [])),  # latched in the motor backend

@@ -1,0 +1,127 @@
+"""Real-time options of the node (issue 11): tick-period histogram, absolute schedule, process set-up."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from spine_module.node import clocks, realtime
+from spine_module.node.clocks import PeriodHistogram, RealTimeClock
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_histogram_percentiles() -> None:
+    h = PeriodHistogram(nominal_s=1e-3)
+    for _ in range(990):
+        h.add(1.0e-3)
+    for _ in range(9):
+        h.add(1.8e-3)
+    h.add(0.5)  # beyond the histogram's range: overflow bin, max kept
+    s = h.summary()
+    assert s["ticks_measured"] == 1000
+    assert 1000.0 <= s["p50_us"] <= 1001.0
+    assert 1000.0 <= s["p99_us"] <= 1001.0  # 990 of 1000 at 1 ms
+    assert 1800.0 <= s["p99_9_us"] <= 1801.0
+    assert s["max_us"] == pytest.approx(5e5)
+    assert s["over_1_5x_nominal"] == 10
+    assert PeriodHistogram(1e-3).summary()["ticks_measured"] == 0
+
+
+class FakeTime:
+    """monotonic() and sleep() on a simulated clock: sleep advances it, `stall` injects a late wake-up."""
+
+    def __init__(self) -> None:
+        self.t = 100.0
+        self.stall = 0.0
+
+    def monotonic(self) -> float:
+        return self.t
+
+    def sleep(self, s: float) -> None:
+        self.t += s + self.stall
+        self.stall = 0.0
+
+
+def test_clock_keeps_an_absolute_schedule(monkeypatch) -> None:
+    fake = FakeTime()
+    monkeypatch.setattr(clocks.time, "monotonic", fake.monotonic)
+    monkeypatch.setattr(clocks.time, "sleep", fake.sleep)
+    clock = RealTimeClock(1000.0, spin_s=0.0)
+    t = [clock.wait() for _ in range(3)]
+    assert t == pytest.approx([0.001, 0.002, 0.003])
+    fake.stall = 0.0025  # this tick wakes 2.5 periods late: an overrun, and t_next is NOT reset ...
+    assert clock.wait() == pytest.approx(0.0065)
+    assert clock.overruns == 1 and clock.rephases == 0
+    # ... so the following ticks are due at once (lost time recovered) and land back on the 1 ms grid
+    t = [clock.wait() for _ in range(4)]
+    assert t == pytest.approx([0.0065, 0.0065, 0.007, 0.008])
+    assert clock.overruns == 2  # the 5 ms tick also began more than a period late; the 6 ms one did not
+    fake.stall = 0.010  # more than 5 periods behind: re-phase instead of a burst of 10 ticks
+    clock.wait()
+    assert clock.rephases == 1 and clock.overruns == 3
+    t0 = clock.wait()
+    assert clock.wait() - t0 == pytest.approx(0.001)
+
+
+def test_cpu_not_available_is_named() -> None:
+    bad = max(os.sched_getaffinity(0)) + 1
+    with pytest.raises(realtime.RtSetupError, match=f"--cpu {bad}: not a CPU"):
+        realtime.apply(realtime.RtOptions(cpu=bad))
+
+
+def test_cpu_pinning_applies_and_reports() -> None:
+    before = os.sched_getaffinity(0)
+    cpu = min(before)
+    try:
+        # (memory locking is tried in a subprocess below: mlockall would pin this test process's memory)
+        lines = realtime.apply(realtime.RtOptions(cpu=cpu, freeze_gc=True))
+        assert os.sched_getaffinity(0) == {cpu}
+    finally:
+        os.sched_setaffinity(0, before)
+    assert lines[0] == f"pinned to CPU {cpu}"
+    assert "frozen" in lines[1]
+
+
+def test_rt_priority_not_permitted_says_how(monkeypatch) -> None:
+    def refuse(*_a):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(realtime.os, "sched_setscheduler", refuse)
+    with pytest.raises(realtime.RtSetupError, match=r"not permitted.*rtprio"):
+        realtime.apply(realtime.RtOptions(rt_priority=50))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--cpu", "4096"], "--cpu 4096: not a CPU"),
+    (["--rt-priority", "0"], "--rt-priority: must be in [1, 99]"),
+    (["--cpu", "-1"], "--cpu: must be in [0, inf]"),
+])
+def test_cli_rejects_bad_rt_options(argv: list[str], message: str) -> None:
+    r = subprocess.run([sys.executable, "-m", "sparc_quad", "spine-node", "--lcm-url", "memq://",
+                        "--duration", "0.01", *argv], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 2
+    assert message in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_node_summary_reports_the_period_histogram(tmp_path: Path) -> None:
+    out = tmp_path / "node.json"
+    r = subprocess.run([sys.executable, "-m", "sparc_quad", "spine-node", "--lcm-url", "memq://",
+                        "--no-heartbeat", "--duration", "0.2", "--lock-memory", "--summary", str(out)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0, r.stderr
+    s = json.loads(out.read_text())
+    lock = s["realtime"][0]
+    assert lock == "memory locked (mlockall)" or lock.startswith("memory not locked: ")
+    assert "frozen" in s["realtime"][1]
+    p = s["period"]
+    assert p["ticks_measured"] == s["ticks"] - 1
+    assert 0 < p["p50_us"] <= p["p99_us"] <= p["p99_9_us"] <= p["max_us"]
+    assert p["nominal_us"] == 1000.0
+    assert s["overruns"] >= 0
