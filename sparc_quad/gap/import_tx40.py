@@ -108,22 +108,23 @@ def convert(source: str | Path, out: str | Path,
     qm, tm = decimate(qm, factor), decimate(tm, factor)
     t = t[::factor]
     rate = RATE_HZ / factor
-    paths = []
-    for i, (a, b) in enumerate(windows_s):
+    selections = []  # every window checked before anything is written
+    for a, b in windows_s:
         if not (0.0 <= a < b):
             raise LogImportError(f"window {a}:{b} s: need 0 <= start < end")
         sel = (t >= a - 1e-12) & (t < b - 1e-12)
         if sel.sum() < 16:
             raise LogImportError(f"window {a}:{b} s holds {sel.sum()} samples "
-                                  f"of a {t[-1] + 1 / rate:.3f} s log")
+                                 f"of a {t[-1] + 1 / rate:.3f} s log")
+        selections.append((a, b, sel))
+    how = "as recorded" if factor == 1 else f"decimated x{factor} (linear-phase FIR)"
+    paths = []
+    for i, (a, b, sel) in enumerate(selections):
         name = names[i] if names else f"tx40_{i:02d}"
-        path = out / f"{name}.csv"
-        how = "as recorded" if factor == 1 else f"decimated x{factor} (linear-phase FIR)"
         desc = (f"Staubli TX40 identification log (FIGAROH), t = {a:g}..{b:g} s of the recording, "
-                f"{how} at {rate:g} Hz; "
-                "motor-side encoder positions and motor torques")
+                f"{how} at {rate:g} Hz; motor-side encoder positions and motor torques")
         meta = sidecar(os.path.relpath(urdf.resolve(), out.resolve()), rate, desc)
-        paths.append(write_trial(path, t[sel] - t[sel][0], qm[sel], tm[sel], meta))
+        paths.append(write_trial(out / f"{name}.csv", t[sel] - t[sel][0], qm[sel], tm[sel], meta))
     return paths
 
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import os
 import xml.etree.ElementTree as ET
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
 
@@ -131,15 +131,6 @@ class ArmPlant:
         ddq = np.linalg.solve(M - 0.5 * dt * df, tau - h + f)
         dq1 = dq + dt * ddq
         return q + dt * dq1, dq1, ddq
-
-    def inverse(self, q, dq, ddq, dt) -> np.ndarray:
-        """Joint torque that `step` needs for this (q, dq, ddq): rows of samples."""
-        out = np.empty_like(q)
-        for k in range(q.shape[0]):
-            f, df = self.friction(dq[k])
-            out[k] = (pin.rnea(self.model, self.data, q[k], dq[k], ddq[k]) + self.B @ ddq[k] - f
-                      - 0.5 * dt * df @ ddq[k])
-        return out
 
 
 def true_model(nominal, case: ArmCase):
@@ -289,7 +280,7 @@ def synth_arm(out: str | Path, *, seed: int = 0, n_trials: int = 3, periods: int
                          f"{period_s})")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    case = case or ArmCase()
+    case = replace(case) if case is not None else ArmCase()  # a copy: the drawn link errors go into it
     rng = np.random.default_rng(seed)
     urdf = write_massless_flange_urdf(out)
     robot = Robot(urdf, JOINTS, {}, (0.0, 0.0, -9.81), "tool0")
