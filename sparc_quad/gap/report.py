@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from sparc_quad.gap.workflow import REGIMES
+from sparc_quad.gap.regimes import REGIMES
 
 
 def _fmt(x: float | None) -> str:

@@ -12,13 +12,13 @@ import numpy as np
 
 from sparc_quad.gap import identify as I
 from sparc_quad.gap.errors import NumericalError
+from sparc_quad.gap.regimes import REGIMES
 from sparc_quad.gap.replay import replay
 from sparc_quad.gap.trial import Trial, TrialError, load_trial, robot_for
 from sparc_quad.sim.plant_effects import PlantEffects
 
 log = logging.getLogger(__name__)
 GAP_CLOSED_FACTOR = 1.1
-REGIMES = ("near_zero_velocity", "velocity_reversal", "high_acceleration", "high_torque", "slow_drift")
 
 
 def load_trials(paths: Sequence[str | Path]) -> list[Trial]:

@@ -20,53 +20,10 @@ import numpy as np
 from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.sim import gait_metrics
+from sparc_quad.sim.bound_log import COLUMNS, LEGS
 from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
 
-LEGS = ("HL", "HR", "FL", "FR")
-LEG_JOINTS = tuple(f"{leg}_{j}" for leg in LEGS for j in ("haa", "hfe", "kfe"))
-
-COLUMNS = (
-    "t",
-    "x",
-    "y",
-    "z",
-    "q1_true",
-    "dq1_true",
-    "q1_est",
-    "dq1_est",
-    "ddq1_est",
-    "pitch_front",
-    "roll",
-    "yaw",
-    "q2",
-    "q3",
-    "q4",
-    "dq2",
-    "dq3",
-    "dq4",
-    "tau2",
-    "tau3",
-    "tau4",
-    "spine_x",
-    "spine_z",
-    "spine_theta",
-    "contact_HL",
-    "contact_HR",
-    "contact_FL",
-    "contact_FR",
-    "stance_hind",
-    "stance_front",
-    "leg_power_w",
-    "spine_power_w",
-    "leg_tau_max",
-    # appended for the stiffness study (issue 13): every joint's applied torque and rate, the gait clock
-    *(f"tau_{j}" for j in LEG_JOINTS),
-    *(f"dq_{j}" for j in LEG_JOINTS),
-    "gait_phase",  # gait clock, cycles in [0, 1): a stride starts where it wraps
-    "gait_frequency_hz",
-    "spine_spring_energy_j",  # passive spine: energy stored in the spring
-)
 _TAU0 = COLUMNS.index("tau_HL_haa")
 _DQ0 = COLUMNS.index("dq_HL_haa")
 _PH = COLUMNS.index("gait_phase")

@@ -23,6 +23,7 @@ import warnings
 
 import numpy as np
 
+from sparc_quad.sim.bound_log import COLUMNS, LEG_JOINTS
 from spine_module import params as P
 
 GROUPS = ("legs", "spine", "total")
@@ -91,8 +92,6 @@ def empty_metrics() -> dict:
 
 
 def _columns():
-    from sparc_quad.sim.bound_run import COLUMNS, LEG_JOINTS
-
     idx = {name: k for k, name in enumerate(COLUMNS)}
     return idx, LEG_JOINTS
 
