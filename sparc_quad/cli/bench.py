@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
 from sparc_quad.cli.args import add_gain_options, nonnegative_int, positive_int
+from sparc_quad.cli.output import atomic_dir
 from spine_module import params as P
 
 UNITS = "Units: stiffness N/m, damping N*s/m, displacement m, force N, time s."
@@ -84,6 +87,17 @@ def _quasi_static_gains(args: argparse.Namespace) -> dict[str, object]:
     return out
 
 
+@contextlib.contextmanager
+def _out(args: argparse.Namespace) -> Iterator[Path]:
+    """Where an experiment writes: a temporary sibling of --out that replaces it when complete (the other
+    experiments' files in --out are kept); `bench all` writes its three into one such folder."""
+    if getattr(args, "write_to", None) is not None:
+        yield args.write_to
+        return
+    with atomic_dir(args.out, keep_others=True) as tmp:
+        yield tmp
+
+
 def _progress(items, desc: str, unit: str):
     from tqdm import tqdm
 
@@ -97,8 +111,9 @@ def run_static(args: argparse.Namespace) -> int:
                               plant=_plant(args), **_quasi_static_gains(args))
     if args.quick:
         cfg = replace(cfg, period_s=4.0, cycles=1, sample_every=3)
-    rows, raw = static.run_static(cfg, _progress(cfg.k_values, "static k_x", "k"))
-    static.write_static(rows, raw, cfg, args.out)
+    with _out(args) as out:
+        rows, raw = static.run_static(cfg, _progress(cfg.k_values, "static k_x", "k"))
+        static.write_static(rows, raw, cfg, out)
     print(static.format_table(rows))
     print(f"wrote {args.out / 'static.json'}, static.csv, static.png")
     return 0
@@ -113,8 +128,9 @@ def run_dynamic(args: argparse.Namespace) -> int:
     if args.quick:
         cfg = replace(cfg, trials=3, duration_s=1.2)
     pairs = [(k, b) for k in cfg.k_values for b in cfg.b_values]
-    cases, curves = dynamic.run_dynamic(cfg, _progress(pairs, "dynamic (k, b)", "case"))
-    dynamic.write_dynamic(cases, curves, cfg, args.out)
+    with _out(args) as out:
+        cases, curves = dynamic.run_dynamic(cfg, _progress(pairs, "dynamic (k, b)", "case"))
+        dynamic.write_dynamic(cases, curves, cfg, out)
     print(f"{'k':>5} {'b':>5} {'NRMSE':>7} {'zeta':>6} {'fit':>6} {'lag0':>6} {'drift':>6} {'growth':>6}")
     for c in cases:
         def f(v: float | None) -> str:
@@ -133,8 +149,9 @@ def run_pd(args: argparse.Namespace) -> int:
     if args.quick:
         cfg = replace(cfg, trials=3, displacements_m=(0.01, 0.02, 0.03))
     pairs = [(c, k) for c in cfg.controllers for k in cfg.k_values]
-    rows = pd.run_pd(cfg, _progress(pairs, "pd (controller, k_x)", "k"))
-    pd.write_pd(rows, cfg, args.out)
+    with _out(args) as out:
+        rows = pd.run_pd(cfg, _progress(pairs, "pd (controller, k_x)", "k"))
+        pd.write_pd(rows, cfg, out)
     print(f"{'controller':>10} {'k_x':>5} {'slope mean':>10} {'slope SD':>9} {'R2':>7}")
     for r in rows:
         print(f"{r.controller:>10} {r.k_cmd:5.0f} {r.slope_mean:10.1f} {r.slope_sd:9.2f} {r.r2_pooled:7.4f}")
@@ -143,4 +160,6 @@ def run_pd(args: argparse.Namespace) -> int:
 
 
 def run_all(args: argparse.Namespace) -> int:
-    return run_static(args) or run_dynamic(args) or run_pd(args)
+    with atomic_dir(args.out, keep_others=True) as tmp:
+        each = argparse.Namespace(**{**vars(args), "write_to": tmp})
+        return run_static(each) or run_dynamic(each) or run_pd(each)

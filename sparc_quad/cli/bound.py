@@ -6,6 +6,7 @@ import argparse
 import json
 import logging
 import math
+import sys
 from pathlib import Path
 
 from sparc_quad.cli.args import (
@@ -19,6 +20,7 @@ from sparc_quad.cli.args import (
     positive_float,
     stiffness,
 )
+from sparc_quad.cli.output import atomic_dir, moved
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.sim.imu import ImuConfig
 from sparc_quad.sim.quadruped_urdf import DEFAULT_HOST, ROBOT_HOSTS
@@ -109,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
     spine = None
     if args.rigid_spine and (args.lcm or args.spine == "node"):
-        print("--rigid-spine is the hypothetical rigid robot: it does not use the spine node")
+        print("--rigid-spine is the hypothetical rigid robot: it does not use the spine node",
+              file=sys.stderr)
         return 2
     if args.lcm:
         from sparc_quad.sim.quad_node_link import NodeSpine
@@ -118,14 +121,16 @@ def run(args: argparse.Namespace) -> int:
             spine = NodeSpine.over_lcm(cfg.spine, cfg.friction_compensation, url=args.lcm_url,
                                        lockstep=not args.realtime, wait_node_s=args.wait_node)
         except TimeoutError as exc:
-            print(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` first")
+            print(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` first",
+                  file=sys.stderr)
             return 2
     elif args.spine == "node":
         from sparc_quad.sim.quad_node_link import NodeSpine
 
         spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation)
-    result = run_bound(cfg, spine=spine, video=args.video)
-    paths = write_outputs(result, args.out)
+    with atomic_dir(args.out) as tmp:  # --out keeps its previous result until this one is complete
+        result = run_bound(cfg, spine=spine, video=args.video)
+        paths = moved(write_outputs(result, tmp), tmp, args.out)
     m = result.metrics
     summary = {k: m.get(k) for k in ("fell", "fall_time_s", "fall_reason", "mean_speed_m_s", "cot_pos",
                                       "cost_of_transport", "stride_frequency_hz", "stride_length_m",

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from sparc_quad.cli.args import nonnegative_int, positive_float, positive_int
+from sparc_quad.cli.output import atomic_dir, moved
 from sparc_quad.sim.plant_effects import EFFECT_NAMES
 
 
@@ -58,9 +59,10 @@ def run(args: argparse.Namespace) -> int:
         if args.trials == ["synth"]:
             from sparc_quad.gap.synth import synth
 
-            res = synth(args.out, args.effect, seed=args.seed, n_trials=args.trials_n,
-                        periods=args.periods or 4, period_s=args.period, unmodelled=args.unmodelled)
-            for pth in res["trials"]:
+            with atomic_dir(args.out) as tmp:
+                res = synth(tmp, args.effect, seed=args.seed, n_trials=args.trials_n,
+                            periods=args.periods or 4, period_s=args.period, unmodelled=args.unmodelled)
+            for pth in moved(res["trials"], tmp, args.out):
                 print(pth)
             print(f"hidden effects: {json.dumps([e.to_dict() for e in res['hidden']])}")
             return 0
@@ -68,8 +70,9 @@ def run(args: argparse.Namespace) -> int:
             return _synth_arm(args)
         from sparc_quad.gap.workflow import run as run_gap
 
-        rep = run_gap(args.trials, args.out, nominal_plant=args.plant, window_s=args.window,
-                      cutoff_hz=args.cutoff, plots=not args.no_plots)
+        with atomic_dir(args.out) as tmp:
+            rep = run_gap(args.trials, tmp, nominal_plant=args.plant, window_s=args.window,
+                          cutoff_hz=args.cutoff, plots=not args.no_plots)
     except (TrialError, PlantEffectsError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -85,10 +88,11 @@ def run(args: argparse.Namespace) -> int:
 def _synth_arm(args: argparse.Namespace) -> int:
     from sparc_quad.gap.synth_arm import ArmCase, synth_arm
 
-    res = synth_arm(args.out, seed=args.seed, n_trials=args.trials_n, periods=args.periods or 2,
-                    period_s=args.period, case=ArmCase(coupled_wrist=not args.uncoupled),
-                    motor_side=not args.joint_side, with_dq=not args.no_dq)
-    for pth in res["trials"]:
+    with atomic_dir(args.out) as tmp:
+        res = synth_arm(tmp, seed=args.seed, n_trials=args.trials_n, periods=args.periods or 2,
+                        period_s=args.period, case=ArmCase(coupled_wrist=not args.uncoupled),
+                        motor_side=not args.joint_side, with_dq=not args.no_dq)
+    for pth in moved(res["trials"], tmp, args.out):
         print(pth)
     print(f"truth: {args.out / 'truth.json'} ({len(res['truth']['hidden'])} hidden effects; "
           "the last trial is the held-out one)")

@@ -1,0 +1,98 @@
+"""Ctrl-C during `bound`, `bench`, `gap synth` and `gap` ends cleanly (exit 130, one line, no traceback),
+and --out holds the whole previous result: the new one is written to a temporary sibling that replaces the
+folder only when complete (issue 10 item 11)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from sparc_quad.cli.output import atomic_dir
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _previous_result(out: Path) -> None:
+    out.mkdir(parents=True)
+    (out / "previous.json").write_text('{"run": "previous"}\n')
+
+
+def _wait_for(pred, proc: subprocess.Popen, what: str, timeout_s: float = 300.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not pred():
+        if proc.poll() is not None:
+            raise AssertionError(f"exited ({proc.returncode}) before {what}: {proc.stderr.read()[-2000:]}")
+        if time.monotonic() > deadline:
+            proc.kill()
+            raise AssertionError(f"no {what} within {timeout_s} s")
+        time.sleep(0.05)
+
+
+def _interrupt(argv: list[str], out: Path) -> tuple[int, str]:
+    """Start the command, SIGINT it once it has begun its temporary output folder, return (rc, stderr)."""
+    proc = subprocess.Popen([sys.executable, "-m", "sparc_quad", *argv, "--out", str(out)], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    _wait_for(lambda: any(out.parent.glob(f".{out.name}.tmp-*")), proc, "temporary output folder")
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=300)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise
+    return proc.returncode, err
+
+
+def _check(rc: int, err: str, out: Path, command: str) -> None:
+    assert rc == 130, err[-3000:]
+    assert "Traceback" not in err, err[-3000:]
+    assert err.strip().splitlines()[-1] == f"sparc-quad {command}: interrupted", err[-3000:]
+    assert sorted(p.name for p in out.iterdir()) == ["previous.json"]  # the old result, whole
+    assert (out / "previous.json").read_text() == '{"run": "previous"}\n'
+    assert not list(out.parent.glob(f".{out.name}.*")), "temporary folder left behind"
+
+
+@pytest.mark.parametrize(("argv", "command"), [
+    (["bound", "--duration", "60"], "bound"),
+    (["bench", "static", "--kx", ",".join(["500"] * 20)], "bench"),
+    (["gap", "synth", "--effect", "coulomb_friction:joint=q3,tau_c_nm=0.15", "--trials-n", "200",
+      "--periods", "20"], "gap"),
+])
+def test_ctrl_c_exits_130_and_keeps_the_previous_result(tmp_path, argv, command):
+    out = tmp_path / "out"
+    _previous_result(out)
+    rc, err = _interrupt(argv, out)
+    _check(rc, err, out, command)
+
+
+def test_ctrl_c_during_gap_workflow(tmp_path):
+    trials = tmp_path / "trials"
+    subprocess.run([sys.executable, "-m", "sparc_quad", "gap", "synth", "--effect",
+                    "coulomb_friction:joint=q3,tau_c_nm=0.15", "--trials-n", "2", "--periods", "4",
+                    "--out", str(trials)], cwd=ROOT, check=True, capture_output=True, timeout=600)
+    out = tmp_path / "gap"
+    _previous_result(out)
+    rc, err = _interrupt(["gap", *map(str, sorted(trials.glob("trial_*.csv")))], out)
+    _check(rc, err, out, "gap")
+
+
+def test_atomic_dir_is_whole_or_untouched(tmp_path):
+    out = tmp_path / "out"
+    _previous_result(out)
+    (out / "other.json").write_text("{}")
+    with pytest.raises(RuntimeError), atomic_dir(out) as tmp:
+        (tmp / "new.json").write_text("{}")
+        raise RuntimeError("half-way")
+    assert sorted(p.name for p in out.iterdir()) == ["other.json", "previous.json"]
+    with atomic_dir(out, keep_others=True) as tmp:  # the bench experiments share a folder
+        (tmp / "previous.json").write_text("new")
+    assert sorted(p.name for p in out.iterdir()) == ["other.json", "previous.json"]
+    assert (out / "previous.json").read_text() == "new"
+    with atomic_dir(out) as tmp:
+        (tmp / "new.json").write_text("{}")
+    assert sorted(p.name for p in out.iterdir()) == ["new.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
