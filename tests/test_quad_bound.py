@@ -99,7 +99,7 @@ def test_cli_lcm_without_a_node_says_what_to_start(tmp_path, capsys):
     # LCM's default URL needs a multicast route; memq:// is in-process and has no node on it
     argv = ["bound", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.2", "--out", str(tmp_path)]
     assert main(argv) == 2
-    assert "spine-node --motors lcm" in capsys.readouterr().out
+    assert "spine-node --motors lcm" in capsys.readouterr().err
     assert main(["bound", "--lcm", "--rigid-spine", "--out", str(tmp_path)]) == 2
 
 
