@@ -16,6 +16,7 @@ import numpy as np
 
 from spine_module import params
 from spine_module.messages import channels
+from spine_module.messages.layout import layouts
 from spine_module.messages.lcmt.sparc import (
     heartbeat_t,
     motor_command_t,
@@ -188,6 +189,19 @@ FEEDBACK_CHECK = _Checker(FEEDBACK_RANGES, _sizes(motor_feedback_t, FEEDBACK_RAN
 MOTOR_COMMAND_CHECK = _Checker(MOTOR_COMMAND_RANGES, _sizes(motor_command_t, MOTOR_COMMAND_RANGES))
 
 
+_LAYOUTS = layouts(LCM_TYPES)
+
+
+def _blank(cls: type):
+    """A generated message object without running its constructor (every field is assigned next)."""
+    return object.__new__(cls) if cls in _LAYOUTS else cls()
+
+
+def _encode(m) -> bytes:
+    layout = _LAYOUTS.get(type(m))
+    return layout.encode(m) if layout is not None else m.encode()
+
+
 # --- raw decode -------------------------------------------------------------------------------------
 def decode_raw(channel: str, data: bytes, cls: type | None = None):
     """Bytes -> generated LCM object, checking fingerprint and length. No range checks."""
@@ -195,6 +209,11 @@ def decode_raw(channel: str, data: bytes, cls: type | None = None):
         cls = TYPE_BY_CHANNEL.get(channel)
         if cls is None:
             raise MessageError(channel, "", "unknown channel (not a sparc-quad channel)")
+    layout = _LAYOUTS.get(cls)
+    if layout is not None:
+        m = layout.decode(data)  # one struct call for a well-formed fixed-size message
+        if m is not None:
+            return m
     data = bytes(data)
     expected = cls._get_packed_fingerprint()
     if len(data) < 8:
@@ -333,6 +352,8 @@ def decode(channel: str, data: bytes):
 
 # --- encode -----------------------------------------------------------------------------------------
 def _l(a, n: int = 3) -> list[float]:
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.shape == (n,):
+        return a.tolist()
     out = np.asarray(a, dtype=float).tolist()
     if len(out) != n:
         raise ValueError(f"expected {n} values, got {len(out)}")
@@ -340,47 +361,47 @@ def _l(a, n: int = 3) -> list[float]:
 
 
 def encode_torso(t: TorsoState) -> bytes:
-    m = torso_state_t()
+    m = _blank(torso_state_t)
     m.utime, m.seq = _us(t.stamp_s), int(t.seq)
     m.q1, m.dq1, m.ddq1, m.ddq1_valid = float(t.q1), float(t.dq1), float(t.ddq1), bool(t.ddq1_valid)
     m.quat, m.omega = _l(t.quat, 4), _l(t.omega)
-    return m.encode()
+    return _encode(m)
 
 
 def encode_command(c: SpineCommand) -> bytes:
-    m = spine_command_t()
+    m = _blank(spine_command_t)
     m.utime, m.seq, m.mode = _us(c.stamp_s), int(c.seq), int(c.mode)
     m.x_d, m.dx_d, m.ddx_d, m.k, m.d = _l(c.x_d), _l(c.dx_d), _l(c.ddx_d), _l(c.k), _l(c.d)
     m.friction_compensation, m.tau_ff, m.reset = bool(c.friction_compensation), _l(c.tau_ff), bool(c.reset)
-    return m.encode()
+    return _encode(m)
 
 
 def encode_heartbeat(h: Heartbeat) -> bytes:
-    m = heartbeat_t()
+    m = _blank(heartbeat_t)
     m.utime, m.seq, m.sender, m.fault, m.reset_count = (_us(h.stamp_s), int(h.seq), h.sender, bool(h.fault),
                                                         int(h.reset_count))
-    return m.encode()
+    return _encode(m)
 
 
 def encode_motor_feedback(f: MotorFeedback) -> bytes:
-    m = motor_feedback_t()
+    m = _blank(motor_feedback_t)
     m.utime, m.seq = _us(f.stamp_s), int(f.seq)
     m.angle, m.velocity, m.torque, m.temperature = _l(f.q), _l(f.dq), _l(f.tau), _l(f.temperature_c)
     m.mode = [int(v) for v in np.asarray(f.mode).reshape(3)]
     m.fault = [int(v) for v in np.asarray(f.fault).reshape(3)]
     m.load_cell = _l(f.load_cell_n, 2)
-    return m.encode()
+    return _encode(m)
 
 
 def encode_motor_command(c: MotorCommand, feedback_seq: int = -1) -> bytes:
-    m = motor_command_t()
+    m = _blank(motor_command_t)
     m.utime, m.seq, m.feedback_seq, m.enable = _us(c.stamp_s), int(c.seq), int(feedback_seq), bool(c.enable)
     m.position, m.velocity, m.kp, m.kd, m.torque = _l(c.q_des), _l(c.dq_des), _l(c.kp), _l(c.kd), _l(c.tau_ff)
-    return m.encode()
+    return _encode(m)
 
 
 def encode_state(s: SpineState) -> bytes:
-    m = spine_state_t()
+    m = _blank(spine_state_t)
     m.utime, m.seq, m.mode, m.requested_mode = _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode)
     m.faults, m.rejected = int(s.faults), s.rejected
     m.q, m.dq, m.tau_cmd, m.tau_est = _l(s.q, 4), _l(s.dq, 4), _l(s.tau_cmd), _l(s.tau_est)
@@ -388,4 +409,4 @@ def encode_state(s: SpineState) -> bytes:
     m.load_cell, m.temperature = _l(s.load_cell, 2), _l(s.temperature)
     m.period, m.jitter_max, m.compute = float(s.period), float(s.jitter_max), float(s.compute)
     m.feedback_seq, m.command_seq, m.torso_seq = int(s.feedback_seq), int(s.command_seq), int(s.torso_seq)
-    return m.encode()
+    return _encode(m)
