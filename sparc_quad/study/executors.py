@@ -10,6 +10,7 @@ import contextlib
 import importlib
 import multiprocessing
 import os
+import threading
 import time
 import traceback
 from collections.abc import Iterator
@@ -69,6 +70,15 @@ def execute(config: dict, version: str, trial_hash: str) -> dict:
 
 def _init_worker() -> None:
     os.environ.update(BLAS_ENV)
+    parent = os.getppid()
+
+    def exit_with_parent() -> None:  # a killed study must not leave workers simulating for nobody
+        while True:
+            time.sleep(2.0)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=exit_with_parent, daemon=True, name="exit-with-parent").start()
 
 
 @contextlib.contextmanager
