@@ -38,6 +38,10 @@ def _ci(mean, lo, hi, nd=1, unit="") -> str:
     return f"{mean:.{nd}f}{unit} [{lo:.{nd}f}, {hi:.{nd}f}]"
 
 
+def _g(x) -> str:
+    return "–" if x is None else f"{x:g}"
+
+
 def _falls(row: dict) -> str:
     return f"; fell {row['n_fell']}/{row['n']}, CoT over the rest" if row.get("n_fell") else ""
 
@@ -118,9 +122,10 @@ def evaluate(analysis: dict) -> list[dict]:
                     "best_d": best["d"],
                     "near_best_k": near,
                     "verdict": v,
-                    "finding": f"{_speed(ref):g} m/s: best k_x {best['k']:g} N/m (d_x {best['d']:g}), "
+                    "finding": f"{_g(_speed(ref))} m/s: best k_x {_g(best['k'])} N/m "
+                    f"(d_x {_g(best['d'])}{_falls(best)}), "
                     f"CoT_pos {_ci(best['mean'], best['lo'], best['hi'], 2)} at {_speed_txt(best)}; "
-                    f"k within its CI: {', '.join(f'{k:g}' for k in near)}",
+                    f"k_x not distinguishable from it: {', '.join(_g(k) for k in near)}",
                 }
             )
             # C2: the CoT optimum's k, d and stride length
@@ -136,7 +141,7 @@ def evaluate(analysis: dict) -> list[dict]:
                     "best_d": best["d"],
                     "stride_m": stride,
                     "verdict": v,
-                    "finding": f"best (k_x, d_x) = ({best['k']:g}, {best['d']:g}); stride "
+                    "finding": f"best (k_x, d_x) = ({_g(best['k'])}, {_g(best['d'])}); stride "
                     f"{'–' if stride is None else f'{1000 * stride:.0f} mm'}; "
                     f"k in 500-800: {'yes' if hit[0] else 'no'}, d in 8-20: {'yes' if hit[1] else 'no'}, "
                     f"stride in 70-80 mm: {'yes' if hit[2] else 'no'}",
@@ -152,7 +157,7 @@ def evaluate(analysis: dict) -> list[dict]:
                 d, lo, hi = b["diff_pct"], b["diff_lo"], b["diff_hi"]
                 nums[metric] = {"k": b["k"], "d": b["d"], "diff_pct": d, "lo": lo, "hi": hi}
                 parts.append(
-                    f"{label} {_ci(d, lo, hi, 0, ' %')} at ({b['k']:g}, {b['d']:g}; {_speed_txt(b)})"
+                    f"{label} {_ci(d, lo, hi, 0, ' %')} at ({_g(b['k'])}, {_g(b['d'])}; {_speed_txt(b)})"
                 )
                 if lo is None or hi is None:
                     verdicts.append("no CI")
@@ -179,7 +184,7 @@ def evaluate(analysis: dict) -> list[dict]:
                     "speed": _speed(ref),
                     "numbers": nums,
                     "verdict": v,
-                    "finding": f"{_speed(ref):g} m/s, best cell vs rigid: " + "; ".join(parts),
+                    "finding": f"{_g(_speed(ref))} m/s, best cell vs rigid: " + "; ".join(parts),
                 }
             )
             # C4: how much the spine matters at low speed against 0.9 m/s
@@ -224,10 +229,10 @@ def evaluate(analysis: dict) -> list[dict]:
                     "low_speed": _speed(low),
                     "spread": spread,
                     "verdict": v,
-                    "finding": f"% vs rigid over k x d: {_speed(low):g} m/s {spread['low']['min']:+.0f} to "
+                    "finding": f"% vs rigid over k x d: {_g(_speed(low))} m/s {spread['low']['min']:+.0f} to "
                     f"{spread['low']['max']:+.0f} ({spread['low']['significant']}/"
                     f"{spread['low']['cells']} cells CI excludes 0; {spread['low']['trials_fell']}/"
-                    f"{spread['low']['trials']} trials fell); {_speed(ref):g} m/s "
+                    f"{spread['low']['trials']} trials fell); {_g(_speed(ref))} m/s "
                     f"{spread['ref']['min']:+.0f} to {spread['ref']['max']:+.0f} "
                     f"({spread['ref']['significant']}/{spread['ref']['cells']}; "
                     f"{spread['ref']['trials_fell']}/{spread['ref']['trials']} fell)",
