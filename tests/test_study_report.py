@@ -26,7 +26,7 @@ def synthetic_cot(spine: str, speed: float, k: float | None, d: float | None) ->
     return base * (1.05 if spine == "passive" else 1.0)
 
 
-def make_study(folder, fall_cell=None):
+def make_study(folder, fall_cell=None, all_fall=False):
     rng = np.random.default_rng(0)
     hashes = []
     n = 0
@@ -48,7 +48,9 @@ def make_study(folder, fall_cell=None):
                     cfg.update(kx=k, dx=d)
                 mean = synthetic_cot(spine, speed, k, d) * (1.0 + 0.2 * (seed - 1))  # seeds differ a lot
                 strides = [{"cot_pos_total": float(mean + rng.normal(0, 0.005))} for _ in range(20)]
-                fell = fall_cell == (spine, speed, k, d)
+                fell = fall_cell == (spine, speed, k, d) or (all_fall and spine != "rigid")
+                if all_fall and fell:  # a trial that fell before its steady window: every metric NaN
+                    strides = [{"cot_pos_total": float("nan")}]
                 m = {
                     "fell": fell,
                     "cot_pos_total": float(np.mean([s["cot_pos_total"] for s in strides])),
@@ -111,6 +113,17 @@ def test_falls_are_hatched_and_excluded(tmp_path):
     assert cell.fall_lo == pytest.approx(0.4385, abs=1e-3)  # Wilson 3/3
     best = next(o for o in res["optima"] if o["spine"] == "impedance" and o["panel"].startswith("sine_0.9"))
     assert (best["best"]["k"], best["best"]["d"]) != (800.0, 8.0)
+
+
+def test_claims_when_every_compliant_trial_fell(tmp_path):
+    make_study(tmp_path, all_fall=True)
+    _, trials = load_trials(tmp_path)
+    res = analyse(trials, n_boot=100)
+    rows = evaluate(res)
+    assert {r["verdict"] for r in rows} == {"not tested"}
+    assert "every trial fell: 36/36" in rows[0]["finding"] and "rigid fell 0/3" in rows[0]["finding"]
+    cell = next(c for c in res["cells"] if c.spine == "passive" and c.metric == "cot_pos_total")
+    assert cell.n_fell == cell.n == 3 and cell.fall_lo == pytest.approx(0.4385, abs=1e-3)
 
 
 def test_write_report_outputs(tmp_path):

@@ -12,6 +12,8 @@ favours it (winner's curse): C1-C3 use the best cell's CI as it is, so read them
 
 from __future__ import annotations
 
+from sparc_quad.study.stats import wilson
+
 HEADLINE = "cot_pos_total"
 REF_SPEED_M_S = 0.9
 C1_K = (800.0, 1200.0)
@@ -24,6 +26,7 @@ POWER_METRICS = (
     ("cot_elec_total", "CoT_elec"),
 )
 COMPLIANT = ("impedance", "passive")
+BASELINES = ("rigid", "rigid-impedance")
 
 
 def _in(x, lo_hi) -> bool:
@@ -94,8 +97,26 @@ def evaluate(analysis: dict) -> list[dict]:
             base = {"gait": gait, "spine": spine}
             o = _optimum(optima, ref["panel"], spine, HEADLINE) if ref else None
             if o is None or o.get("best") is None:
+                why = "no cells"
+                if o is not None:
+                    cs = [
+                        r
+                        for r in rows_by_cell
+                        if r["panel"] == ref["panel"] and r["spine"] == spine and r["metric"] == HEADLINE
+                    ]
+                    n, nf = sum(r["n"] for r in cs), sum(r["n_fell"] for r in cs)
+                    rate, lo, hi = wilson(nf, n)
+                    bcs = [
+                        r
+                        for r in rows_by_cell
+                        if r["panel"] == ref["panel"] and r["spine"] in BASELINES and r["metric"] == HEADLINE
+                    ]
+                    bn, bf = sum(r["n"] for r in bcs), sum(r["n_fell"] for r in bcs)
+                    why = (
+                        f"every trial fell: {nf}/{n} over k x d (fall rate {100 * rate:.0f} % "
+                        f"[{100 * lo:.0f}, {100 * hi:.0f}]); rigid fell {bf}/{bn}; no cost to compare"
+                    )
                 for c in ("C1", "C2", "C3", "C4"):
-                    why = "no cells" if o is None else "no cell with a CoT (every trial fell)"
                     out.append({**base, "claim": c, "finding": why, "verdict": "not tested"})
                 continue
             best = o["best"]

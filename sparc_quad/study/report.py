@@ -180,7 +180,8 @@ def analyse(trials: list[Trial], n_boot: int = 2000) -> dict:
             sorted((k, v) for k, v in cfg.items() if k in SPINE_GAIN_KEYS and k not in (K_AXIS, D_AXIS))
         )
         groups[panel_key(cfg)][(spine, gains, cfg.get(K_AXIS), cfg.get(D_AXIS))].append(t)
-    metrics = [m for m, _ in METRICS if any(t.values(m) for t in ok)]
+    # a metric the trials report (even as NaN after a fall), so cells that all fell still show their falls
+    metrics = [m for m, _ in METRICS if any(m in t.metrics for t in ok)]
     cells: list[Cell] = []
     panels = []
     for pkey in sorted(groups, key=repr):
