@@ -27,8 +27,8 @@ from pathlib import Path
 
 import pybullet as pb
 
+from sparc_quad.robot_side.quad import NodeSpine
 from sparc_quad.sim.bound_run import BoundConfig, run_bound
-from sparc_quad.sim.quad_node_link import NodeSpine
 from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
 
 ROOT = Path(__file__).resolve().parents[1]

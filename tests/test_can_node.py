@@ -11,8 +11,10 @@ import pytest
 
 pytest.importorskip("spine_module.node")
 
-from sparc_quad.sim.bench_robot import run_inprocess, static_push_script, stiffness_from_states
-from sparc_quad.sim.cybergear_bench import node_stiffness, run_node_over_can
+from sparc_quad.bench.scripts import static_push_script
+from sparc_quad.bench.stats import stiffness_fit, stiffness_from_states
+from sparc_quad.robot_side.bench import run_inprocess
+from sparc_quad.robot_side.can import run_node_over_can
 from spine_module import params as P
 from spine_module.buses.cybergear import load_config
 from spine_module.messages import Fault, Mode
@@ -25,7 +27,8 @@ def test_node_static_stiffness_over_can(torque_mode):
     run = run_node_over_can(static_push_script(k, cycles=1.0), config=cfg)
     assert run.emulator_rejected == 0 and run.bus_stats["send_errors"] == 0
     assert all(s.mode == Mode.IMPEDANCE for s in run.states[100:])
-    k_hat, r2, n = node_stiffness(run, P.X_EQUILIBRIUM[0], skip_s=1.0)
+    fit = stiffness_fit(run.states_arrays(), P.X_EQUILIBRIUM[0], skip_s=1.0)
+    k_hat, r2, n = fit.slope, fit.r2, fit.n
     assert n >= 6000 and r2 > 0.99
     assert abs(k_hat - k) / k < 0.015, k_hat
     _, states = run_inprocess(static_push_script(k, cycles=1.0))
@@ -53,12 +56,16 @@ def test_node_motor_faults_over_can(name, inject):
     assert run.stop_frames_sent >= 3  # node.stop() at the end; latched faults also stop every tick
 
 
+# Every wait below is on an event (a line, a frame count, a process exit) with a generous deadline, never
+# a guessed duration: the node has control frames to send only once a torque-producing mode is asked for,
+# so the script asks for DAMPING over LCM (torso state absent: the node damps) until it has seen them.
 NODE_CLI = """
-import json, signal, subprocess, sys, time, can
+import json, signal, subprocess, sys, time, can, lcm
 subprocess.run(["ip", "link", "set", "lo", "up", "multicast", "on"], check=True)
 subprocess.run(["ip", "route", "add", "224.0.0.0/4", "dev", "lo"], check=True)
-from tests.can_util import Sniffer
+from tests.can_util import Sniffer, wait_for
 from spine_module.buses.cybergear import protocol as P
+from spine_module.messages import Mode, SpineCommand, channels, codec
 py, chan, log = sys.executable, "239.74.163.2", sys.argv[1]
 emu = subprocess.Popen([py, "-m", "sparc_quad", "motors", "emulate", "--can-interface", "udp_multicast",
                         "--can-channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True)
@@ -67,16 +74,22 @@ sbus = can.Bus(interface="udp_multicast", channel=chan)
 sn = Sniffer()
 nt = can.Notifier(sbus, [sn], timeout=0.05)
 node = subprocess.Popen([py, "-m", "sparc_quad", "spine-node", "--motors", "can", "--can-interface",
-                         "udp_multicast", "--can-channel", chan, "--lcm-url", "memq://", "--no-heartbeat",
-                         "--can-log", log], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-deadline = time.monotonic() + 60
-while time.monotonic() < deadline and len(sn.of_type(P.CommType.OPERATION_CONTROL)) < 300:
-    time.sleep(0.05)
+                         "udp_multicast", "--can-channel", chan, "--lcm-url", channels.DEFAULT_URL,
+                         "--no-heartbeat", "--can-log", log],
+                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+lc = lcm.LCM(channels.DEFAULT_URL)
+damp = codec.encode_command(SpineCommand(mode=Mode.DAMPING))
+def control_frames_or_exit():
+    lc.publish(channels.SPINE_COMMAND, damp)  # UDP: keep asking until the node acts on it
+    return len(sn.of_type(P.CommType.OPERATION_CONTROL)) >= 300 or node.poll() is not None
+controlled = wait_for(control_frames_or_exit, timeout_s=240)
 n0 = len(sn.frames)
 node.send_signal(signal.SIGTERM)
-out, err = node.communicate(timeout=60)
-time.sleep(0.3)
-res = {"rc": node.returncode, "summary": out.strip().splitlines()[-1] if out.strip() else "",
+out, err = node.communicate(timeout=120)
+wait_for(lambda: all(any(P.split_id(m.arbitration_id)[0] == 4 and m.arbitration_id & 0xFF == i
+                         for m in sn.frames[n0:]) for i in (1, 2, 3)), timeout_s=30)
+res = {"rc": node.returncode, "controlled": controlled,
+       "summary": out.strip().splitlines()[-1] if out.strip() else "",
        "err": err[-1500:],
        "types": sorted({P.split_id(m.arbitration_id)[0] for m in sn.frames[:n0]}),
        "stops_after": {i: sum(1 for m in sn.frames[n0:] if P.split_id(m.arbitration_id)[0] == 4
@@ -113,6 +126,7 @@ def test_spine_node_motors_can_cli_sigterm(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     res = json.loads(proc.stdout.strip().splitlines()[-1])
     assert res["rc"] == 0, res["err"]
+    assert res["controlled"], res
     assert {0, 1, 2, 3, 4, 18} <= set(res["types"])  # get id, control, feedback, enable, stop, run_mode
     assert all(n >= 1 for n in res["stops_after"].values()), res
     assert json.loads(res["summary"])["ticks"] > 0

@@ -6,7 +6,9 @@ from __future__ import annotations
 import lcm
 import numpy as np
 
-from sparc_quad.sim.bench_robot import BenchRobot, LcmRobotPort, run_inprocess, static_push_script
+from sparc_quad.bench.scripts import static_push_script
+from sparc_quad.robot_side.bench import BenchRobot, run_inprocess
+from sparc_quad.robot_side.ports import LcmPort
 from sparc_quad.sim.bench_world import BenchWorld
 from spine_module.buses.base import MotorBusError, MotorFeedback
 from spine_module.buses.lcm import LcmMotorBus
@@ -24,7 +26,7 @@ def test_lockstep_over_lcm_memq_equals_inprocess():
     ref_robot, ref_states = run_inprocess(_script(), NodeConfig(), n_ticks=N)
     lc = lcm.LCM("memq://")
     node = SpineNode(Controllers.default(), LcmMotorBus(lc=lc), LcmNodeIO(lc), NodeConfig())
-    port = LcmRobotPort(lc=lc)
+    port = LcmPort(lc=lc)
     with BenchWorld() as world:
         robot = BenchRobot(world, port, _script())
         for _ in range(N):

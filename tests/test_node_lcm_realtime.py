@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sparc_quad.sim.bench_robot import run_inprocess, static_push_script, stiffness_from_states
+from sparc_quad.bench.scripts import static_push_script
+from sparc_quad.bench.stats import stiffness_from_states
+from sparc_quad.robot_side.bench import run_inprocess
 from spine_module.messages import Fault, Mode
 from spine_module.node import NodeConfig
 from spine_module.safety import SafetyConfig

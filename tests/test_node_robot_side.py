@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 from sparc_quad.bench import rig
-from sparc_quad.sim.bench_robot import BenchRobot, InProcessRobotPort, hold_script, run_inprocess
+from sparc_quad.bench.scripts import hold_script
+from sparc_quad.robot_side.bench import BenchRobot, run_inprocess
+from sparc_quad.robot_side.ports import InProcessPort
 from sparc_quad.sim.bench_world import BenchWorld
 from spine_module.buses.inprocess import InProcessBus, InProcessLink
 from spine_module.messages import Mode
@@ -22,7 +24,7 @@ def test_robot_latches_on_lost_node_heartbeat_until_reset():
     link, io = InProcessLink(), InProcessNodeIO()
     node = SpineNode(Controllers.default(), InProcessBus(link), io)
     with BenchWorld() as world:
-        robot = BenchRobot(world, InProcessRobotPort(link, io), hold_script(10.0))
+        robot = BenchRobot(world, InProcessPort(link, io), hold_script(10.0))
 
         def tick(node_alive: bool):
             t = robot.publish_tick()

@@ -104,7 +104,7 @@ def test_cli_lcm_without_a_node_says_what_to_start(tmp_path, capsys):
 
 
 def test_node_in_process_bounds_and_runs_on_the_estimate():
-    from sparc_quad.sim.quad_node_link import NodeSpine
+    from sparc_quad.robot_side.quad import NodeSpine
 
     cfg = BoundConfig(duration_s=1.5, settle_s=0.2)
     r = run_bound(cfg, spine=NodeSpine.inprocess(cfg.spine))

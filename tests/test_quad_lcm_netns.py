@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sparc_quad.robot_side.quad import NodeSpine
 from sparc_quad.sim.bound_run import BoundConfig, run_bound
-from sparc_quad.sim.quad_node_link import NodeSpine
 from tests.node_netns import run_in_netns, unshare_prefix
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,23 +1,27 @@
 """The closed loop of a bench experiment: controller on measured state, plant, and what pushes on it.
 
-One `run` call is one trial: deterministic for its seed, no side effects, returns its log.
+One `run` call is one trial: deterministic for its seed, no side effects, returns its log. It is the robot
+side's loop (`RobotSide`) with the bench world as plant and the controller in place of the node
+(`DirectPort`): the same schedule, motor model and feedback frames as the node runs.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from sparc_quad.robot_side.loop import RobotSide
+from sparc_quad.robot_side.plants import BenchPlant
+from sparc_quad.robot_side.ports import DirectPort
 from sparc_quad.sim.bench_world import BenchWorld
+from sparc_quad.sim.forces import ForceLaw
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
 from spine_module.control import ImpedanceController, StribeckFriction, TaskController, TaskPDController
 from spine_module.model import SpineModel
 
-# external force along x (N) as a function of (time s, true task pose, true task velocity)
-ForceLaw = Callable[[float, np.ndarray, np.ndarray], float]
+__all__ = ["ForceLaw", "TrialLog", "make_controller", "run"]
 
 
 @dataclass
@@ -50,27 +54,11 @@ def run(controller: TaskController, duration_s: float, force: ForceLaw | None = 
     """Run the bench for duration_s with `controller` at 1 kHz; log every `sample_every` steps."""
     n = round(duration_s / P.CONTROL_PERIOD_S)
     m = n // sample_every
-    log = TrialLog(np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3)), np.zeros(m), np.zeros(m),
-                   np.zeros((m, 3)))
-    model = controller.model
-    kin = model.create_data()
-    f_ext = np.zeros(3)
+    port = DirectPort(controller)
     with BenchWorld(plant=plant, seed=seed, q0=q0) as world:
-        row = 0
-        for i in range(n):
-            q, dq = world.measured_joint_state()
-            out = controller.step(q, dq)
-            st = world.state()
-            model.update_kinematics(kin, st.q, st.dq)
-            fx = force(world.time_s, kin.x, kin.dx) if force is not None else 0.0
-            f_ext[0] = fx
-            if i % sample_every == 0 and row < m:
-                log.t[row] = world.time_s
-                log.x_true[row] = kin.x
-                log.x_meas[row] = out.x
-                log.f_true[row] = fx
-                log.f_cell[row] = world.load_cell(fx)
-                log.tau[row] = out.tau
-                row += 1
-            world.step(out.tau, f_ext if fx != 0.0 else None)
-    return log
+        robot = RobotSide(BenchPlant(world, force, load_cell_every=sample_every), port)
+        robot.run_lockstep(n)
+    a = robot.log.arrays()
+    rows = slice(0, m * sample_every, sample_every)
+    return TrialLog(t=a["t_world"][rows], x_true=a["x"][rows], x_meas=np.array(port.x_meas)[rows],
+                    f_true=a["f_true"][rows], f_cell=a["f_cell"][rows], tau=np.array(port.tau_cmd)[rows])

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -18,6 +17,7 @@ import numpy as np
 
 from sparc_quad.bench import rig
 from sparc_quad.bench.stats import chunk_slopes, ols
+from sparc_quad.sim.forces import push_pull
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
 from spine_module.model import SpineModel
@@ -63,12 +63,6 @@ class StaticRow:
     rel_err_pct: float
     chunk_mean: float
     chunk_sd: float
-
-
-def push_pull(amplitude_n: float, period_s: float) -> rig.ForceLaw:
-    def force(t: float, x: np.ndarray, dx: np.ndarray) -> float:
-        return amplitude_n * math.sin(2 * math.pi * t / period_s)
-    return force
 
 
 def measure_stiffness(k: float, cfg: StaticConfig, model: SpineModel | None = None,

@@ -7,6 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from sparc_quad.robot_side.states import states_arrays
+from spine_module import params as P
+
 
 @dataclass(frozen=True)
 class LineFit:
@@ -34,3 +37,20 @@ def chunk_slopes(x: np.ndarray, y: np.ndarray, n_chunks: int) -> np.ndarray:
     """OLS slopes of n_chunks contiguous chunks: how steady the stiffness is along the recording."""
     idx = np.array_split(np.arange(len(x)), n_chunks)
     return np.array([ols(x[i], y[i]).slope for i in idx if len(i) >= 3])
+
+
+def stiffness_fit(states: list | dict[str, np.ndarray], x_d: float = P.X_EQUILIBRIUM[0],
+                  skip_s: float = 0.0) -> LineFit:
+    """The one stiffness estimator: OLS of the load-cell force against the node's x (its encoders and
+    forward kinematics) minus x_d, N/m, over the node's spine states (list, or `states_arrays`) from
+    `skip_s` on; rows without a load-cell reading (NaN) are left out."""
+    a = states if isinstance(states, dict) else states_arrays(states)
+    t, x, f = a["node_stamp_s"], a["node_x"][:, 0] - x_d, a["node_load_cell"][:, 0]
+    sel = (t >= skip_s) & np.isfinite(x) & np.isfinite(f)
+    return ols(x[sel], f[sel])
+
+
+def stiffness_from_states(states: list | dict[str, np.ndarray], x_d: float = P.X_EQUILIBRIUM[0],
+                          skip_s: float = 0.0) -> float:
+    """`stiffness_fit(...).slope`, N/m."""
+    return stiffness_fit(states, x_d, skip_s).slope

@@ -115,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     if args.lcm:
-        from sparc_quad.sim.quad_node_link import NodeSpine
+        from sparc_quad.robot_side.quad import NodeSpine
 
         try:
             spine = NodeSpine.over_lcm(cfg.spine, cfg.friction_compensation, url=args.lcm_url,
@@ -125,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
                   file=sys.stderr)
             return 2
     elif args.spine == "node":
-        from sparc_quad.sim.quad_node_link import NodeSpine
+        from sparc_quad.robot_side.quad import NodeSpine
 
         spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation)
     with atomic_dir(args.out) as tmp:  # --out keeps its previous result until this one is complete

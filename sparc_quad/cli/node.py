@@ -57,7 +57,8 @@ def _experiment_args(p: argparse.ArgumentParser) -> None:
 
 
 def _script(args: argparse.Namespace):
-    from sparc_quad.sim.bench_robot import BenchScript, hold_script, static_push_script
+    from sparc_quad.bench.scripts import hold_script, static_push_script
+    from sparc_quad.robot_side.scripts import BenchScript
 
     if args.experiment == "static":
         s = static_push_script(args.kx, args.amplitude, args.period, args.cycles)
@@ -339,7 +340,8 @@ def run_node(args: argparse.Namespace) -> int:
 
 
 def _run_node_inprocess(args: argparse.Namespace) -> int:
-    from sparc_quad.sim.bench_robot import run_inprocess, stiffness_from_states
+    from sparc_quad.bench.stats import stiffness_from_states
+    from sparc_quad.robot_side.bench import run_inprocess
 
     if args.clock != "lockstep":
         log.info("--motors inprocess always runs in lockstep (robot and node in one thread)")
@@ -353,12 +355,15 @@ def _run_node_inprocess(args: argparse.Namespace) -> int:
 
 
 def run_bench_robot(args: argparse.Namespace) -> int:
-    from sparc_quad.sim.bench_robot import BenchRobot, LcmRobotPort, states_arrays, stiffness_from_states
+    from sparc_quad.bench.stats import stiffness_from_states
+    from sparc_quad.robot_side.bench import BenchRobot
+    from sparc_quad.robot_side.ports import LcmPort
+    from sparc_quad.robot_side.states import states_arrays
     from sparc_quad.sim.bench_world import BenchWorld
 
     script = _script(args)
     try:
-        port = LcmRobotPort(args.lcm_url)
+        port = LcmPort(args.lcm_url)
     except RuntimeError as exc:
         log.error("cannot open LCM at %r (a multicast route is needed, see README): %s", args.lcm_url, exc)
         return 2
@@ -373,11 +378,7 @@ def run_bench_robot(args: argparse.Namespace) -> int:
             rate = None
         else:
             rate = robot.run_realtime(stop=stop.is_set)
-        # collect the node's last states still in flight
-        t_end = time.monotonic() + 0.3
-        while time.monotonic() < t_end:
-            port.lc.handle_timeout(20)
-    states = [s for s in port.states]
+        states = port.drain_states(0.3)  # the node's last states still in flight
     summary = {"ticks": robot.k, "unanswered": robot.unanswered, "retransmits": robot.retransmits,
                "node_states": len(states),
                "latched": robot.latched, "achieved_rate_hz": rate, "rejected": port.rejected}

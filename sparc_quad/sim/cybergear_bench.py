@@ -6,12 +6,13 @@ law at the end effector (the bench's push-pull), and the load cell's readings ar
 
 `static_trial_over_can` runs the paper's static push-pull for one commanded k_x with the controller on the
 far side of a python-can bus: controller -> CanMotorBus -> frames -> emulator -> pybullet -> frames back.
+The spine node over CAN is `sparc_quad.robot_side.can.run_node_over_can`.
 """
 
 from __future__ import annotations
 
 import uuid
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import can
@@ -19,9 +20,8 @@ import numpy as np
 
 from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.cybergear_emulator import CyberGearEmulator
+from sparc_quad.sim.forces import ForceLaw
 from spine_module.buses.base import MotorCommand
-
-ForceLaw = Callable[[float, np.ndarray, np.ndarray], float]
 
 
 class BenchCoupling:
@@ -116,89 +116,3 @@ def static_trial_over_can(controller, duration_s: float, force: ForceLaw, *, pla
     return CanTrialLog(x_meas=np.array([r[0] for r in rows[:m]]), f_cell=np.array(coupling.f_cell[:m]),
                        f_true=np.array(coupling.f_true[:m]), tau=np.array([r[1] for r in rows[:m]]),
                        cycles=n, tx_frames=tx, rx_frames=rx, emulator_rejected=len(emu.rejected))
-
-
-@dataclass
-class NodeCanRun:
-    """A node run over CAN: the node's states, the rig's force log, the backend's counters."""
-
-    states: list  # SpineState per tick
-    t_force: np.ndarray  # world time of each logged step, s
-    f_cell: np.ndarray  # load-cell reading at that step, N
-    ticks: int
-    bus_stats: dict
-    emulator_rejected: int
-    stop_frames_sent: int
-
-
-def run_node_over_can(script, node_config=None, plant=None, seed: int = 0, controllers=None,
-                      n_ticks: int | None = None, config=None, channel: str | None = None,
-                      heartbeat_period_s: float = 0.010, command_period_s: float = 0.010,
-                      on_tick: Callable[[int, CyberGearEmulator], None] | None = None) -> NodeCanRun:
-    """The spine node with `--motors can`: node -> CanMotorBus -> virtual CAN -> emulated CyberGears
-    (lockstep) -> pybullet bench spine. The robot side that is not motors (torso state, robot heartbeat,
-    the torso computer's spine command, from `script`) reaches the node in process, as in the in-process
-    run; the load cell is logged here by world time, since CAN carries no load cell. `on_tick(k, emulator)`
-    runs before tick k (fault injection)."""
-    from spine_module.buses.cybergear import CanMotorBus, load_config
-    from spine_module.messages import Heartbeat, TorsoState
-    from spine_module.node import Controllers, SpineNode
-    from spine_module.node.io import InProcessNodeIO
-
-    cfg = (config or load_config()).with_(silent_timeout_s=5.0)
-    channel = channel or f"node-{uuid.uuid4().hex[:8]}"
-    io = InProcessNodeIO()
-    with BenchWorld(plant=plant, seed=seed) as world:
-        coupling = BenchCoupling(world, cfg.ids, script.force, log_every=1)
-        ebus = can.Bus(interface="virtual", channel=channel)
-        emu = CyberGearEmulator(ebus, cfg.ids, coupling, lockstep=True, dt=world.dt_s, ranges=cfg.ranges)
-        emu.keep_log = False
-        dt_us = round(world.dt_s * 1e6)
-        mb = CanMotorBus(cfg, interface="virtual", channel=channel,
-                         stamp_clock=lambda: coupling.steps * dt_us * 1e-6)
-        ctrls = controllers if controllers is not None else Controllers.default()
-        node = SpineNode(ctrls, mb, io, node_config)
-        hb_every = max(1, round(heartbeat_period_s / world.dt_s))
-        cmd_every = max(1, round(command_period_s / world.dt_s))
-        n = n_ticks if n_ticks is not None else round(script.duration_s / world.dt_s)
-        try:
-            mb.start()
-            for k in range(n):
-                t = k * dt_us * 1e-6  # robot time of this tick; the world has taken k steps
-                q1, dq1 = coupling.q1()
-                io.send_torso(TorsoState(q1=q1, dq1=dq1, stamp_s=t, seq=k))
-                if k % hb_every == 0:
-                    io.send_heartbeat(Heartbeat(sender="bench-robot", stamp_s=t, seq=k // hb_every))
-                if script.command is not None and k % cmd_every == 0:
-                    c = script.command
-                    c.stamp_s, c.seq = t, k // cmd_every
-                    io.send_command(c)
-                if on_tick is not None:
-                    on_tick(k, emu)
-                fb = node.receive(0.5 if k else 5.0)
-                node.tick(t, fb)
-        finally:
-            node.stop()
-            stats = mb.stats()
-            mb.shutdown()
-            emu.shutdown()
-            ebus.shutdown()
-    return NodeCanRun(states=list(io.states), t_force=np.array(coupling.t), f_cell=np.array(coupling.f_cell),
-                      ticks=n, bus_stats=stats, emulator_rejected=len(emu.rejected),
-                      stop_frames_sent=stats["stop_frames_sent"])
-
-
-def node_stiffness(run: NodeCanRun, x_d: float, skip_s: float = 0.0) -> tuple[float, float, int]:
-    """OLS slope (N/m) of the load cell against the node's x (its CAN feedback + forward kinematics),
-    paired by time; returns (slope, R², n)."""
-    f_at = {round(t * 1e6): f for t, f in zip(run.t_force, run.f_cell, strict=True)}
-    xs, fs = [], []
-    for s in run.states:
-        f = f_at.get(round(s.stamp_s * 1e6))
-        if f is not None and s.stamp_s >= skip_s and np.isfinite(s.x[0]):
-            xs.append(s.x[0] - x_d)
-            fs.append(f)
-    x, f = np.array(xs), np.array(fs)
-    slope, icpt = np.polyfit(x, f, 1)
-    r2 = 1.0 - np.sum((f - slope * x - icpt) ** 2) / np.sum((f - f.mean()) ** 2)
-    return float(slope), float(r2), len(x)

@@ -1,6 +1,6 @@
 """Registry entry for `--motors inprocess`: the node and the pybullet bench spine in one process.
 
-The robot end of the link is driven by the caller (`sparc_quad.sim.bench_robot`); from the command line
+The robot end of the link is driven by the caller (`sparc_quad.robot_side`); from the command line
 `spine-node --motors inprocess` runs the bench robot in the same process (see `sparc_quad.cli.node`).
 """
 

@@ -1,0 +1,114 @@
+"""The quadruped sim as the robot side of the spine interface: the spine node computes the spine torques.
+
+`NodeSpine` is `run_bound`'s `spine(est, q_spine, dq_spine, t) -> tau`: each call is one `RobotSide` tick
+with the quadruped's spine as the plant (torso state from the estimator emulation with q̈1 valid, the
+run's impedance command every 10 ms, feedback as CyberGear frames, the node's answer through the motor
+model).
+
+- `NodeSpine.inprocess(...)`: the node runs in this process on the in-process bus, ticked in lockstep;
+- `NodeSpine.over_lcm(...)`: the node is another process (`sparc-quad spine-node --motors lcm`); lockstep
+  waits for the answer to each tick (deterministic), real time takes whatever command is newest.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sparc_quad.robot_side.loop import RobotConfig, RobotSide
+from sparc_quad.robot_side.plants import QuadPlant
+from sparc_quad.robot_side.ports import InProcessPort, LcmPort, Port
+from sparc_quad.robot_side.states import states_arrays
+from sparc_quad.sim.spine_drive import SpineGains, TaskKinematics
+from spine_module import params as P
+from spine_module.buses.inprocess import InProcessBus, InProcessLink
+from spine_module.messages import Mode, SpineCommand, SpineState
+from spine_module.node import Controllers, NodeConfig, SpineNode
+from spine_module.node.io import InProcessNodeIO
+
+
+class NodeSpine:
+    """`spine(est, q_spine, dq_spine, t) -> tau` for `run_bound`, through the spine node."""
+
+    name = "node"
+
+    def __init__(self, port: Port, gains: SpineGains, friction: bool = False,
+                 node: SpineNode | None = None, node_io: InProcessNodeIO | None = None,
+                 lockstep: bool = True, dt_s: float = P.CONTROL_PERIOD_S,
+                 config: RobotConfig | None = None) -> None:
+        self.port, self.node, self.node_io = port, node, node_io
+        self.lockstep = lockstep
+        self.plant = QuadPlant(dt_s)
+        command = SpineCommand(mode=Mode.IMPEDANCE, x_d=np.array(P.X_EQUILIBRIUM, dtype=float),
+                               k=np.array(gains.k, dtype=float), d=np.array(gains.d, dtype=float),
+                               friction_compensation=friction)
+        cosim = (lambda k, t: node.tick(t, node.receive(0.0))) if node is not None else None
+        self.robot = RobotSide(self.plant, port, command,
+                               config if config is not None else RobotConfig(name="quad-robot"), cosim)
+        self.kinematics = TaskKinematics()
+        self.x = self.kinematics.x
+        self._final_states: list[SpineState] | None = None
+
+    @classmethod
+    def inprocess(cls, gains: SpineGains, friction: bool = False, node_config: NodeConfig | None = None,
+                  **kw) -> NodeSpine:
+        link, io = InProcessLink(), InProcessNodeIO()
+        node = SpineNode(Controllers.default(), InProcessBus(link), io, node_config)
+        return cls(InProcessPort(link, io), gains, friction, node=node, node_io=io, **kw)
+
+    @classmethod
+    def over_lcm(cls, gains: SpineGains, friction: bool = False, url: str = "", lockstep: bool = True,
+                 wait_node_s: float = 30.0, **kw) -> NodeSpine:
+        spine = cls(LcmPort(url), gains, friction, lockstep=lockstep, **kw)
+        if not spine.robot.wait_for_node(wait_node_s):  # tick 0 must not be published into the void
+            spine.port.close()
+            raise TimeoutError(f"no heartbeat from a spine node within {wait_node_s:.1f} s")
+        return spine
+
+    def __call__(self, est, q_spine, dq_spine, t_sim: float) -> np.ndarray:
+        self.plant.set(est, q_spine, dq_spine)
+        self.robot.tick(self.lockstep)
+        self.kinematics.update(np.concatenate(([est.q1], self.plant.q)),
+                               np.concatenate(([est.dq1], self.plant.dq)))
+        return self.plant.tau
+
+    @property
+    def unanswered(self) -> int:
+        return self.robot.unanswered
+
+    @property
+    def sent_q1(self) -> list[float]:
+        """The q1 published each tick (what the node must have used)."""
+        return self.robot.log.columns.get("sent_q1", [])
+
+    @property
+    def task_pose(self) -> np.ndarray:
+        return self.x
+
+    @property
+    def drive(self):  # for run_bound's metrics: the driver's name
+        return self
+
+    def states(self) -> list[SpineState]:
+        """The node's spine states received so far (in process: all; over LCM: those that arrived)."""
+        if self._final_states is not None:
+            return self._final_states
+        if self.node_io is not None:
+            return list(self.node_io.states)
+        if isinstance(self.port, LcmPort):
+            return self.port.drain_states(0.3)
+        return []
+
+    def states_arrays(self) -> dict[str, np.ndarray]:
+        st = self.states()
+        out = states_arrays(st) if st else {}
+        out["robot_sent_q1"] = np.array(self.sent_q1)
+        return out
+
+    def close(self) -> None:
+        if self._final_states is not None:
+            return
+        self._final_states = self.states()
+        if self.node is not None:
+            self.node.stop()
+            self.node = None
+        self.port.close()
