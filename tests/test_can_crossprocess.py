@@ -46,7 +46,7 @@ ORCHESTRATOR = textwrap.dedent(f"""
     import can
     subprocess.run(["ip", "link", "set", "lo", "up", "multicast", "on"], check=True)
     subprocess.run(["ip", "route", "add", "224.0.0.0/4", "dev", "lo"], check=True)
-    from tests.can_util import Sniffer
+    from tests.can_util import Sniffer, wait_for
     from spine_module.buses.cybergear import protocol as P
 
     py, chan = sys.executable, "{GROUP}"
@@ -73,7 +73,9 @@ ORCHESTRATOR = textwrap.dedent(f"""
     driver.send_signal(signal.SIGTERM)
     driver.wait(timeout=60)
     out["driver_rc"] = driver.returncode
-    time.sleep(0.5)
+    # the stop frames are on the wire once the driver has exited; wait until the sniffer has them all
+    wait_for(lambda: all(any(P.split_id(m.arbitration_id)[0] == 4 and (m.arbitration_id & 0xFF) == i
+                             for m in sniffer.frames[n0:]) for i in (1, 2, 3)), timeout_s=30)
     after = sniffer.frames[n0:]
     out["stops_after"] = {{i: sum(1 for m in after if P.split_id(m.arbitration_id)[0] == 4
                                   and (m.arbitration_id & 0xFF) == i) for i in (1, 2, 3)}}

@@ -106,8 +106,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=positive_float, default=None,
                    help="stop after this many seconds of node time")
     p.add_argument("--idle-timeout", type=positive_float, default=5.0,
-                   help="lockstep: stop after this much wall time without motor feedback "
-                        "(default: %(default)s)")
+                   help="lockstep: stop after this much wall time without motor feedback once the robot "
+                        "has been heard (before: 120 s, for a robot slow to start) (default: %(default)s)")
     p.add_argument("--no-heartbeat", action="store_true",
                    help="do not require the robot side's heartbeat (bench use without a PMU-like peer)")
     p.add_argument("--soft-start", type=nonnegative_float, default=P.SAFETY.soft_start_s,

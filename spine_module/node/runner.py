@@ -400,10 +400,12 @@ def run_realtime(node: SpineNode, duration_s: float | None = None,
 
 def run_lockstep(node: SpineNode, duration_s: float | None = None,
                  stop: threading.Event | Callable[[], bool] | None = None,
-                 idle_timeout_s: float = 5.0, max_ticks: int | None = None) -> RunResult:
+                 idle_timeout_s: float = 5.0, max_ticks: int | None = None,
+                 startup_timeout_s: float = 120.0) -> RunResult:
     """One control step per motor feedback tick; node time = the feedback's stamp. Returns when the
-    robot has been silent for `idle_timeout_s` of wall time, after `duration_s` of node time, after
-    `max_ticks`, or when `stop` is set."""
+    robot has been silent for `idle_timeout_s` of wall time (before its first feedback: for
+    `startup_timeout_s`, since a simulated robot may take long to start on a loaded machine), after
+    `duration_s` of node time, after `max_ticks`, or when `stop` is set."""
     stopped = _stopper(stop)
     t_wall0 = time.monotonic()
     ticks = 0
@@ -414,8 +416,9 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
             fb = node.receive(0.05)
             if fb is None:
                 node.idle_heartbeat()
-                if time.monotonic() - last_heard > idle_timeout_s:
-                    log.info("lockstep: no motor feedback for %.1f s, stopping", idle_timeout_s)
+                limit = idle_timeout_s if first is not None else max(idle_timeout_s, startup_timeout_s)
+                if time.monotonic() - last_heard > limit:
+                    log.info("lockstep: no motor feedback for %.1f s, stopping", limit)
                     break
                 continue
             last_heard = time.monotonic()
