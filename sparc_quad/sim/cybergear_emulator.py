@@ -160,6 +160,7 @@ class CyberGearEmulator:
         self.refused: list[str] = []  # commands a real motor would refuse (mode switch while running)
         self.sent = 0
         self.steps = 0
+        self.late_rephases = 0  # free-running: times the plant fell > 5 steps behind and re-phased
         self.keep_log = True
         self._pending: set[int] = set()  # commanded this lockstep cycle
         self.log = log  # a python-can Logger: frames received and sent
@@ -208,12 +209,13 @@ class CyberGearEmulator:
         t_next = time.perf_counter()
         while not stop.is_set():
             self.step()
-            if realtime:
+            if realtime:  # absolute schedule: a late step is made up, unless far (> 5 steps) behind
                 t_next += self.dt
                 delay = t_next - time.perf_counter()
                 if delay > 0:
                     time.sleep(delay)
-                else:
+                elif delay < -5 * self.dt:
+                    self.late_rephases += 1
                     t_next = time.perf_counter()
 
     # --- frames out ----------------------------------------------------------------------------------
