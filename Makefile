@@ -31,9 +31,10 @@ lint: install
 	$(BIN)/ruff check .
 
 # every performance script prints ratios measured in the same run and writes out/bench/<name>.json
-BENCHES := control_step lcm_loop can_loop gap cosim study_scaling
+BENCHES := control_step node_tick lcm_loop can_loop gap cosim study_scaling
 bench: install
 	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json || exit 1; done
+	$(BIN)/python bench/summary.py out/bench
 
 # re-pin the test environment to what the working venv has (after changing dependencies in pyproject)
 constraints: install

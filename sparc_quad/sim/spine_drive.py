@@ -121,8 +121,10 @@ class ImpedanceSpine:
         from spine_module.control import ImpedanceController, StribeckFriction
         from spine_module.model import SpineModel
 
+        # the pinocchio path: importing numba and loading the cached compiled step costs ~1 s of CPU per
+        # process, more than it saves over a simulated run shorter than ~40 s (~25 us per 1 kHz step)
         self.ctrl = ImpedanceController(
-            SpineModel(), friction=StribeckFriction.nominal() if friction else None
+            SpineModel(), friction=StribeckFriction.nominal() if friction else None, backend="pinocchio"
         )
         self.ctrl.set_gains(k=gains.k, d=gains.d)
         self.ctrl.set_target(x_d=tuple(P.X_EQUILIBRIUM), dx_d=(0.0, 0.0, 0.0), ddx_d=(0.0, 0.0, 0.0))
