@@ -57,7 +57,7 @@ def test_silent_motor_at_startup_is_named():
         with pytest.raises(MotorBusError, match=r"no answer within 0.2 s from motor\(s\) q3 \(CAN id 2\)$"):
             mb.start(timeout_s=0.2)
         mb.shutdown()
-        assert all(stops_to(sniffer, i) >= 1 for i in (1, 2, 3))
+        assert all(wait_for(lambda i=i: stops_to(sniffer, i) >= 1) for i in (1, 2, 3))
         assert not emu.frames_of(P.Enable)  # nobody was enabled
 
 

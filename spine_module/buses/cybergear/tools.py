@@ -17,7 +17,9 @@ import can
 from spine_module.buses.cybergear import protocol as P
 from spine_module.buses.cybergear.driver import loggable
 
-STATUS_PARAMS = ("run_mode", "mechPos", "mechVel", "VBUS", "limit_torque", "limit_cur", "iqf")
+# CAN_TIMEOUT last: the motors' own CAN watchdog (0x200C, 1/20000 s per count; see protocol.py) as the
+# motor reports it; a firmware that does not answer for it simply leaves it out of the status line
+STATUS_PARAMS = ("run_mode", "mechPos", "mechVel", "VBUS", "limit_torque", "limit_cur", "iqf", "CAN_TIMEOUT")
 
 
 @dataclass
