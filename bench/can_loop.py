@@ -38,7 +38,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from sparc_quad.sim.cybergear_emulator import CyberGearEmulator
-from spine_module.buses.base import MotorCommand
+from spine_module.buses.base import MotorBusError, MotorCommand
 from spine_module.buses.cybergear import CanMotorBus, bus_load, load_config, max_loop_rate_hz
 from spine_module.node.clocks import PeriodStats, RealTimeClock
 
@@ -50,7 +50,7 @@ def _rig(lockstep: bool):
     ebus = can.Bus(interface="virtual", channel=channel)
     emu = CyberGearEmulator(ebus, (1, 2, 3), lockstep=lockstep)
     emu.keep_log = False
-    cfg = load_config().with_(silent_timeout_s=1.0)
+    cfg = load_config().with_(silent_timeout_s=1.0, can_timeout_s=1.0)  # tolerate a loaded host
     mb = CanMotorBus(cfg, interface="virtual", channel=channel)
     mb.start()
     mb.receive(1.0)
@@ -84,6 +84,7 @@ def _paced_loop(mb, seconds: float, rate_hz: float) -> dict:
     clock = RealTimeClock(rate_hz)
     tx0, rx0 = mb.tx_frames, mb.rx_frames
     n, stale = 0, 0
+    error = None
     stats = PeriodStats(1.0 / rate_hz)
     t0 = time.monotonic()
     while True:
@@ -92,19 +93,23 @@ def _paced_loop(mb, seconds: float, rate_hz: float) -> dict:
             break
         stats.mark(time.monotonic())
         fb = None
-        while True:
-            got = mb.receive(0.0)
-            if got is None:
-                break
-            fb = got
-        stale += fb is None
-        mb.send(cmd)
+        try:
+            while True:
+                got = mb.receive(0.0)
+                if got is None:
+                    break
+                fb = got
+            stale += fb is None
+            mb.send(cmd)
+        except MotorBusError as exc:  # e.g. a motor reset by its CAN timeout after a long stall
+            error = str(exc)
+            break
         n += 1
     dt = time.monotonic() - t0
     return {"cycles": n, "seconds": dt, "rate_hz": n / dt, "target_hz": rate_hz,
             "rate_ratio": n / dt / rate_hz,
             "cycles_without_fresh_feedback": stale, "overruns": clock.overruns, "rephases": clock.rephases,
-            "period": stats.histogram.summary(),
+            "period": stats.histogram.summary(), "bus_error": error,
             "tx_frames_per_s": (mb.tx_frames - tx0) / dt, "rx_frames_per_s": (mb.rx_frames - rx0) / dt}
 
 
@@ -139,7 +144,7 @@ def run_paced_process(seconds: float, rate_hz: float) -> dict:
     try:
         if "emulating" not in (emu.stdout.readline() if emu.stdout else ""):
             raise RuntimeError("the emulator process did not start")
-        cfg = load_config().with_(silent_timeout_s=1.0)
+        cfg = load_config().with_(silent_timeout_s=1.0, can_timeout_s=1.0)  # tolerate a loaded host
         mb = CanMotorBus(cfg, interface="udp_multicast", channel=GROUP)
         mb.start()
         mb.receive(1.0)
