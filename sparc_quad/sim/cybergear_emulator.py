@@ -13,8 +13,9 @@ Behaviour modelled (CyberGear instruction manual, section 4):
   tau = kt * iq_ref, simple speed/position loops; clamped to limit_torque; zero unless RUN;
 - CAN timeout (parameter CAN_TIMEOUT, 0x200C, 1/20000 s per count, 0 = off; see protocol.py for the
   source and what is assumed): a RUN motor that has received no frame addressed to it for that long
-  drops to RESET (zero torque), checked on the emulator's own clock before every plant step and by
-  `check_can_timeouts()`; each trip is recorded in `timeout_trips` (motor, last frame s, trip s);
+  drops to RESET (zero torque), checked on the emulator's own clock (wall time in real time, simulated
+  time in lockstep) before every plant step and by `check_can_timeouts()`; each trip is recorded in
+  `timeout_trips` (motor, last frame s, trip s);
 - fault injection (`inject_fault`: feedback fault bits and a type-21 frame), a motor that stops answering
   (`set_silent`), malformed frames (`send_malformed`).
 
@@ -140,7 +141,7 @@ class CyberGearEmulator:
                  host_id: int = P.DEFAULT_HOST_ID, ranges: P.Ranges = P.DEFAULT_RANGES,
                  lockstep: bool = False, dt: float = 0.001, kt_nm_per_a: float = KT_NM_PER_A,
                  start: bool = True, log: can.Listener | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] | None = None) -> None:
         ids = list(ids)
         self.bus = bus
         self.motors: dict[int, EmulatedMotor] = {
@@ -153,7 +154,10 @@ class CyberGearEmulator:
         self.dt = dt
         self.kt = kt_nm_per_a
         self.lock = threading.RLock()
-        self.clock = clock  # the emulator's own clock (CAN timeout, timeout_trips), s
+        # the emulator's own clock (CAN timeout, timeout_trips), s: wall time when it runs in real time;
+        # in lockstep its simulated time (steps x dt), which only moves when the host commands a step, so
+        # a slow host never trips the CAN timeout there (and a dead host freezes the plant)
+        self.clock = clock if clock is not None else (self._sim_time if lockstep else time.monotonic)
         self.timeout_trips: list[tuple[int, float, float]] = []  # (motor id, last frame s, tripped s)
         self.received: list[P.Frame] = []  # every decoded frame addressed to an emulated motor
         self.rejected: list[str] = []  # reasons for frames addressed to us that the firmware would drop
@@ -179,6 +183,9 @@ class CyberGearEmulator:
             m.last_torque = m.torque(p, v, self.kt)
             out[self._plant_id[m.can_id]] = m.last_torque
         return out
+
+    def _sim_time(self) -> float:
+        return self.steps * self.dt
 
     def check_can_timeouts(self, now: float | None = None) -> None:
         """Drop every RUN motor whose CAN timeout has passed without a frame to RESET (zero torque)."""
