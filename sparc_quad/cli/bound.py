@@ -53,6 +53,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    default=0.0, help="ground slope, rad; > 0 uphill (default %(default)s)")
     p.add_argument("--rigid-spine", action="store_true",
                    help="baseline: spine joints locked at the equilibrium arch (pybullet fixed constraints)")
+    p.add_argument("--spine-variant", choices=["impedance", "passive", "rigid", "rigid-impedance"],
+                   default="impedance",
+                   help="impedance: motor-rendered (default); passive: an ideal spring-damper with the same "
+                        "gains (no actuator work); rigid: locked joints (= --rigid-spine); rigid-impedance: "
+                        "the controller at k = 1e4 N/m")
+    p.add_argument("--body-kp", type=nonnegative_float, default=g.body_kp,
+                   help="stance attitude servo per body, N*m/rad (pushes against spine flexion; 0 = off)")
+    p.add_argument("--body-kd", type=nonnegative_float, default=g.body_kd, help="its damping, N*m*s/rad")
     p.add_argument("--friction-comp", action="store_true",
                    help="enable the controller's friction compensation")
     p.add_argument("--imu-noise", type=nonnegative_float, default=imu.q1_noise_rad,
@@ -86,7 +94,8 @@ def config_from_args(args: argparse.Namespace):
     from sparc_quad.sim.spine_drive import SpineGains
 
     gait = BoundParams(
-        frequency_hz=args.frequency, speed_m_s=args.speed, step_height_m=args.step_height, duty=args.duty
+        frequency_hz=args.frequency, speed_m_s=args.speed, step_height_m=args.step_height, duty=args.duty,
+        body_kp=args.body_kp, body_kd=args.body_kd,
     )
     if args.stride is not None:
         gait = gait.with_stride(args.stride)
@@ -99,6 +108,7 @@ def config_from_args(args: argparse.Namespace):
         world=world,
         spine=spine,
         rigid_spine=args.rigid_spine,
+        spine_variant=args.spine_variant,
         friction_compensation=args.friction_comp,
         stop_on_fall=False,
         realtime=args.realtime,
@@ -110,8 +120,8 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = config_from_args(args)
     spine = None
-    if args.rigid_spine and (args.lcm or args.spine == "node"):
-        print("--rigid-spine is the hypothetical rigid robot: it does not use the spine node",
+    if (args.rigid_spine or args.spine_variant != "impedance") and (args.lcm or args.spine == "node"):
+        print("--rigid-spine / --spine-variant other than impedance do not use the spine node",
               file=sys.stderr)
         return 2
     if args.lcm:
