@@ -138,6 +138,17 @@ def test_write_report_outputs(tmp_path):
     assert "| C3: 21 % less power" in (tmp_path / "report" / "claims.md").read_text()
 
 
+def test_two_study_folders_report_as_one(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    make_study(a)
+    make_study(b)
+    from sparc_quad.study.report import load_studies
+
+    summary, trials = load_studies([a, b])
+    _, one = load_trials(a)
+    assert len(trials) == 2 * len(one) and summary["studies"] == [str(a), str(b)]
+
+
 def test_report_errors(tmp_path):
     with pytest.raises(ReportError, match=r"summary\.json"):
         load_trials(tmp_path)

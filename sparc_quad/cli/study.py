@@ -56,7 +56,20 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(bootstrap CIs over seeds and strides), CoT against k per d, fall rates. "
         "Writes DIR/report/ (PNG, cells.csv, cells.json).",
     )
-    rep.add_argument("dir", type=Path, metavar="DIR", help="a folder written by `study run`")
+    rep.add_argument(
+        "dir",
+        type=Path,
+        nargs="+",
+        metavar="DIR",
+        help="folder(s) written by `study run`; several are reported as one study (then --out is required)",
+    )
+    rep.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="REPORT_DIR",
+        help="where to write the report (default DIR/report)",
+    )
     rep.add_argument("--bootstrap", type=_positive_int, default=2000, help="bootstrap resamples")
     rep.set_defaults(func=report)
 
@@ -85,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         print(f"error: --out {args.out} exists and is not a folder", file=sys.stderr)
         return 2
+
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
@@ -117,11 +131,11 @@ def run(args: argparse.Namespace) -> int:
     return 1 if s.failed else 0
 
 
-def _report(folder: Path, n_boot: int) -> int:
+def _report(folder: Path | list[Path], n_boot: int, out: Path | None = None) -> int:
     from sparc_quad.study.report import ReportError, write_report
 
     try:
-        paths = write_report(folder, n_boot=n_boot)
+        paths = write_report(folder, n_boot=n_boot, out=out)
     except ReportError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -131,7 +145,10 @@ def _report(folder: Path, n_boot: int) -> int:
 
 
 def report(args: argparse.Namespace) -> int:
+    if len(args.dir) > 1 and args.out is None:
+        print("error: several study folders need --out REPORT_DIR", file=sys.stderr)
+        return 2
     try:
-        return _report(args.dir, args.bootstrap)
+        return _report(args.dir, args.bootstrap, args.out)
     except KeyboardInterrupt:
         return 130

@@ -451,11 +451,30 @@ def plot_vs_k(panel: dict, metric: str, cells: list[Cell], fn: dict[float, float
     return path
 
 
-def write_report(folder: Path, n_boot: int = 2000) -> list[Path]:
-    folder = Path(folder)
-    summary, trials = load_trials(folder)
+def load_studies(folders: list[Path]) -> tuple[dict, list[Trial]]:
+    """Several study folders as one (e.g. a full grid at one speed and a cheaper one at another)."""
+    summaries, trials = [], []
+    for f in folders:
+        s, t = load_trials(f)
+        summaries.append(s)
+        trials += t
+    if len(summaries) == 1:
+        return summaries[0], trials
+    merged = {
+        "name": "+".join(str(s.get("name")) for s in summaries),
+        "code_version": sorted({str(s.get("code_version")) for s in summaries}),
+        "trials": sum(int(s.get("trials") or 0) for s in summaries),
+        "studies": [str(f) for f in folders],
+    }
+    return merged, trials
+
+
+def write_report(folder: Path | list[Path], n_boot: int = 2000, out: Path | None = None) -> list[Path]:
+    """Report on one study folder (into DIR/report) or several merged (into `out`)."""
+    folders = [Path(f) for f in (folder if isinstance(folder, list | tuple) else [folder])]
+    summary, trials = load_studies(folders)
     res = analyse(trials, n_boot=n_boot)
-    out = folder / "report"
+    out = Path(out) if out is not None else folders[0] / "report"
     out.mkdir(parents=True, exist_ok=True)
     paths: list[Path] = []
     rows = [c.row() for c in res["cells"]]
