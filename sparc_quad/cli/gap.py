@@ -29,8 +29,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plant", type=Path, default=None,
                    help="nominal plant-effects file (default: the sidecar's 'plant' key, else none)")
     p.add_argument("--window", type=positive_float, default=0.2, help="replay window length, s (default 0.2)")
-    p.add_argument("--cutoff", type=positive_float, default=20.0,
-                   help="low-pass cut-off before differentiation, Hz")
+    p.add_argument("--cutoff", type=positive_float, default=None,
+                   help="low-pass cut-off before differentiation, Hz (default: from the data's bandwidth)")
+    p.add_argument("--max-effects", type=positive_int, default=None,
+                   help="cap on the number of effects named (default: none)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots and report.md")
     g = p.add_argument_group("synth")
     g.add_argument("--effect", action="append", default=[], metavar="NAME[:k=v,...]",
@@ -72,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
 
         with atomic_dir(args.out) as tmp:
             rep = run_gap(args.trials, tmp, nominal_plant=args.plant, window_s=args.window,
-                          cutoff_hz=args.cutoff, plots=not args.no_plots)
+                          cutoff_hz=args.cutoff, plots=not args.no_plots, max_effects=args.max_effects)
     except (TrialError, PlantEffectsError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

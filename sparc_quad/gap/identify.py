@@ -1,4 +1,4 @@
-"""Inverse-dynamics residual, noise floor, the effect library and its selection.
+"""Inverse-dynamics residual, noise floor, the effect library and the fit used by the selection.
 
 Residual (per joint, N*m) at decimated samples of zero-phase low-passed signals:
     r = F(applied(tau_cmd)) + F(friction(dq)) + J^T w - rnea(q_true, dq, ddq)
@@ -7,11 +7,8 @@ difference of dq (the torque held over [t_k, t_k+1) is what changed dq_k into dq
 Every candidate effect is a set of columns (linear in its amplitude) or a fixed column (a nonlinear map of
 the commanded torque) computed at full rate, filtered by the same F and decimated; its shape parameter
 (Stribeck velocity, delay, saturation limit, deadband width) is profiled on a grid and refined.
-Selection: forward stepwise on the training blocks, BIC on decimated samples (one sample per 1/(2 f_c)),
-each joint whitened by its noise floor; a candidate passes when dBIC <= -BIC_MIN, it improves the
-held-out residual by >= HELDOUT_MIN_PCT, its fitted contribution is at least MIN_CONTRIBUTION noise
-floors RMS on its most affected joint, and its parameters are physically plausible. Passing candidates
-of different name or joint within AMBIGUOUS_BIC of the best are reported as ambiguous.
+Fits: least squares on the training blocks, BIC on decimated samples (one sample per 1/(2 f_c)), each
+joint whitened by its noise floor, held-out MSE per joint. The search over effects is `gap.select`.
 """
 
 from __future__ import annotations
@@ -26,14 +23,14 @@ from scipy.signal import butter, sosfiltfilt
 
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial
-from sparc_quad.sim.plant_effects import EFFECT_NAMES, Effect, PlantEffects
+from sparc_quad.sim.plant_effects import Effect, PlantEffects
 
 BIC_MIN = 10.0
 HELDOUT_MIN_PCT = 1.0
 AMBIGUOUS_BIC = 6.0
 HELDOUT_TIE = 1.1  # held-out MSE ratio under which two training-tied candidates stay ambiguous
 MIN_CONTRIBUTION = 0.3  # an effect smaller than this x the noise floor changes the gap by < 5 %: not named
-MAX_EFFECTS = 6
+MOVING_FRACTION = 0.1  # a joint is moving where |dq| exceeds this fraction of its RMS velocity
 EDGE_S = 0.15  # filter edge margin dropped at each end of a block
 
 
@@ -107,7 +104,8 @@ def noise_floor(blocks: list[Block], residuals: list[np.ndarray]) -> tuple[np.nd
     Repeated segments when the trials say their excitation has a period (`period_s`) and hold >= 2 of them:
     the spread of the residual across periods at equal phase (deterministic effects repeat, noise does
     not). Otherwise the high-frequency residual: robust scale of second differences of the decimated
-    residual (a rough bound that includes fast model errors).
+    residual on the samples where the joint moves (|dq| > MOVING_FRACTION x its RMS), per joint (a rough
+    bound that includes fast model errors).
     """
     per_sum, per_cnt = None, 0
     for b, r in zip(blocks, residuals, strict=True):
@@ -130,7 +128,13 @@ def noise_floor(blocks: list[Block], residuals: list[np.ndarray]) -> tuple[np.nd
     if per_sum is not None and per_cnt >= 20:
         return np.sqrt(per_sum / per_cnt), "repeated_segments"
     d2 = np.vstack([np.diff(r, n=2, axis=0) for r in residuals])
-    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) * 1.4826
+    # moving samples only (a joint at rest holds its residual still: a floor from rest collapses to ~0)
+    dq = np.vstack([b.dq_f[1:-1] for b in blocks])
+    moving = np.abs(dq) > MOVING_FRACTION * np.sqrt(np.mean(dq**2, axis=0))
+    mad = np.empty(d2.shape[1])
+    for v in range(d2.shape[1]):
+        x = d2[moving[:, v], v] if moving[:, v].sum() >= 20 else d2[:, v]
+        mad[v] = np.median(np.abs(x - np.median(x))) * 1.4826
     # var(second difference) = sigma^2 (6 - 8 rho1 + 2 rho2), rho_k: the correlation the low-pass leaves
     # between decimated samples of white noise (the residual noise of the synthetic bench matches it)
     rho1, rho2 = filtered_white_correlation(blocks[0])
@@ -263,6 +267,7 @@ class Fit:
     beta: np.ndarray
     se: np.ndarray
     heldout_mse: float
+    heldout_mse_joint: np.ndarray | None = None  # per joint (whitened), on the held-out blocks
 
 
 class Selector:
@@ -306,11 +311,20 @@ class Selector:
         else:
             beta, se, rss = np.zeros(0), np.zeros(0), float(y @ y)
         bic = n * math.log(rss / n) + k * math.log(n)
-        ho = float("nan")
+        ho, ho_joint = float("nan"), np.full(self.robot.nv, np.nan)
         if self.test:
             yt, Xt, _ = self._design(terms, self.test)
-            ho = float(np.mean((yt - Xt @ beta) ** 2)) if Xt.shape[1] else float(np.mean(yt**2))
-        return Fit(terms, bic, rss, n, beta, se, ho)
+            e = yt - Xt @ beta if Xt.shape[1] else yt
+            ho = float(np.mean(e**2))
+            sq, cnt, a = np.zeros(self.robot.nv), 0, 0
+            for bi in self.test:  # per joint: each block is flattened column by column
+                m = self.base[bi].shape[0]
+                seg = e[a:a + m * self.robot.nv].reshape(m, self.robot.nv, order="F")
+                sq += np.sum(seg**2, axis=0)
+                cnt += m
+                a += m * self.robot.nv
+            ho_joint = sq / cnt
+        return Fit(terms, bic, rss, n, beta, se, ho, ho_joint)
 
     def contribution(self, fit: Fit) -> float:
         """RMS of the last term's fitted contribution, in noise floors, on its most affected joint."""
@@ -420,107 +434,6 @@ def term_params(t: Term) -> tuple[dict, dict]:
         case "torque_deadband":
             return {"width_nm": t.theta}, {"width_nm": t.theta_se}
     raise KeyError(t.name)
-
-
-def plausible(t: Term, robot: Robot, tau_peak: float) -> str | None:
-    """None when the fitted parameters are physically possible, else the reason."""
-    p, se = term_params(t)
-    limit = float(robot.model.effortLimit[robot.act_idx[robot.actuated.index(t.joint)]]) or 1e3
-    checks = {
-        "coulomb_friction": (0 < p.get("tau_c_nm", 0) < 0.5 * limit,
-                             "Coulomb friction must be in (0, limit/2)"),
-        "viscous_friction": (0 < p.get("b_nm_s_rad", 0) < 10.0,
-                             "viscous coefficient must be in (0, 10) N*m*s/rad"),
-        "stribeck_friction": (0 < p.get("tau_s_nm", 0) < 0.5 * limit and 1e-3 <= p.get("dq_s_rad_s", 0) <= 5,
-                              "Stribeck excess must be positive, velocity in [1e-3, 5] rad/s"),
-        "rotor_inertia": (0 < p.get("inertia_kg_m2", 0) < 1.0, "armature must be positive"),
-        "torque_gain": (0.3 < p.get("gain", 0) < 1.5, "torque gain must be in (0.3, 1.5)"),
-        "torque_offset": (abs(p.get("offset_nm", 0)) < 0.25 * limit, "offset beyond a quarter of the limit"),
-        "time_delay": (0 < p.get("delay_s", 0) <= 0.05, "delay must be in (0, 50 ms]"),
-        "payload_mass": (0 < p.get("mass_kg", 0) < 20.0, "payload mass must be positive"),
-        "encoder_offset": (abs(p.get("offset_rad", 0)) < 0.5, "encoder offset beyond 0.5 rad"),
-        "torque_saturation": (0 < p.get("limit_nm", 0) < tau_peak, "limit must lie below the peak command"),
-        "torque_deadband": (0 < p.get("width_nm", 0) < 0.5 * tau_peak,
-                            "deadband must be below half the peak"),
-    }
-    ok, why = checks[t.name]
-    if not ok:
-        return why
-    for k, v in se.items():
-        val = p[k]
-        if isinstance(val, float) and np.isfinite(v) and abs(val) < 2 * v:
-            return f"{k} not distinguishable from zero ({val:.3g} +- {v:.2g})"
-    return None
-
-
-@dataclass
-class StepRecord:
-    term: Term
-    delta_bic: float
-    heldout_improvement_pct: float
-    ambiguous_with: list[dict]
-
-
-def select(sel: Selector, max_effects: int = MAX_EFFECTS) -> tuple[list[StepRecord], Fit, list[dict]]:
-    """Forward stepwise selection. Returns (accepted steps, final fit, rejected/log entries)."""
-    robot = sel.robot
-    selected: list[Term] = []
-    cur = sel.fit([])
-    steps: list[StepRecord] = []
-    log: list[dict] = []
-    tau_peak = {}
-    for ja, j in enumerate(robot.actuated):
-        tau_peak[j] = max(float(np.max(np.abs(sel.lib.blocks[b].trial.tau_cmd[:, ja]))) for b in sel.train)
-    while len(steps) < max_effects:
-        cands = []
-        taken = {t.key for t in selected}
-        for name in EFFECT_NAMES:
-            for joint in robot.actuated:
-                if (name, joint) in taken:
-                    continue
-                term, fit = sel.candidate(selected, name, joint)
-                term.coef_index = sum(not x.fixed for x in fit.terms) - 1 if not term.fixed else -1
-                if not term.fixed:
-                    full = sel.fit(fit.terms, with_se=True)
-                    term.coef, term.se = float(full.beta[term.coef_index]), float(full.se[term.coef_index])
-                dbic = fit.bic - cur.bic
-                imp = 100.0 * (1.0 - fit.heldout_mse / cur.heldout_mse) if sel.test else float("nan")
-                why = plausible(term, robot, tau_peak[joint])
-                size = sel.contribution(fit)
-                if size < MIN_CONTRIBUTION:
-                    why = why or f"contribution {size:.2f} x noise floor < {MIN_CONTRIBUTION}"
-                if dbic > -BIC_MIN:
-                    why = why or f"dBIC {dbic:.1f} > -{BIC_MIN}"
-                elif sel.test and not imp >= HELDOUT_MIN_PCT:
-                    why = why or f"held-out improvement {imp:.2f} % < {HELDOUT_MIN_PCT} %"
-                cands.append((fit.bic, term, fit, dbic, imp, why))
-        cands.sort(key=lambda c: c[0])
-        passing = [c for c in cands if c[5] is None]
-        log.append({"step": len(steps) + 1, "top": [
-            {"name": c[1].name, "joint": c[1].joint, "delta_bic": round(c[3], 2),
-             "heldout_improvement_pct": round(c[4], 3), "rejected_because": c[5]} for c in cands[:6]]})
-        if not passing:
-            break
-        # near-ties on the training blocks; the held-out blocks may still separate them (another part of
-        # the data): the tied candidate best on held-out data wins, and only those within
-        # HELDOUT_TIE of it on held-out data stay ambiguous
-        group = [c for c in passing if c[0] - passing[0][0] < AMBIGUOUS_BIC]
-        if sel.test and len(group) > 1:
-            group.sort(key=lambda c: c[2].heldout_mse)
-            group = [c for c in group if c[2].heldout_mse <= HELDOUT_TIE * group[0][2].heldout_mse]
-        best, rivals = group[0], group[1:]
-        term, fit = best[1], best[2]
-        selected = list(fit.terms)
-        amb = [{"name": c[1].name, "joint": c[1].joint, "delta_bic_vs_best": round(c[0] - best[0], 2),
-                "heldout_mse_vs_best": round(c[2].heldout_mse / best[2].heldout_mse, 4),
-                "params": term_params(c[1])[0]} for c in rivals]
-        steps.append(StepRecord(term, best[3], best[4], amb))
-        cur = fit
-    final = sel.fit(selected, with_se=True)
-    lin = [t for t in selected if not t.fixed]
-    for i, t in enumerate(lin):
-        t.coef, t.se = float(final.beta[i]), float(final.se[i])
-    return steps, final, log
 
 
 def term_effect(t: Term) -> Effect:

@@ -14,6 +14,7 @@ from sparc_quad.gap import identify as I
 from sparc_quad.gap.errors import NumericalError
 from sparc_quad.gap.regimes import REGIMES
 from sparc_quad.gap.replay import replay
+from sparc_quad.gap.select import select
 from sparc_quad.gap.trial import Trial, TrialError, load_trial, robot_for
 from sparc_quad.sim.plant_effects import PlantEffects
 
@@ -43,6 +44,29 @@ def load_trials(paths: Sequence[str | Path]) -> list[Trial]:
                 raise TrialError(p.with_suffix(".json"), "urdf differs from the first trial", column="urdf")
         trials.append(tr)
     return trials
+
+
+CUTOFF_OVER_BANDWIDTH = 6.0
+BANDWIDTH_ENERGY = 0.99
+CUTOFF_MIN_HZ = 5.0
+
+
+def choose_cutoff(trials: list[Trial]) -> tuple[float, float]:
+    """(low-pass cut-off, velocity bandwidth), Hz, from the data: the bandwidth is the frequency under
+    which BANDWIDTH_ENERGY of the measured velocity's energy lies (Welch, max over joints and trials);
+    the cut-off CUTOFF_OVER_BANDWIDTH times it (room for effects that act faster than the motion, e.g. a
+    delay or friction at reversals), within [CUTOFF_MIN_HZ, rate/10]."""
+    from scipy.signal import welch
+
+    bw = 0.0
+    for tr in trials:
+        f, P = welch(tr.dq, fs=tr.rate_hz, nperseg=min(len(tr.t), round(4 * tr.rate_hz)), axis=0)
+        c = np.cumsum(P, axis=0)
+        for v in range(P.shape[1]):
+            if c[-1, v] > 0:
+                bw = max(bw, float(f[min(np.searchsorted(c[:, v] / c[-1, v], BANDWIDTH_ENERGY), len(f) - 1)]))
+    rate = trials[0].rate_hz
+    return float(np.clip(CUTOFF_OVER_BANDWIDTH * bw, CUTOFF_MIN_HZ, rate / 10)), bw
 
 
 def split(trials: list[Trial], heldout_fraction: float = 1 / 3) -> tuple[list[Trial], list[bool]]:
@@ -125,8 +149,10 @@ def _per_joint(robot, arr) -> dict:
 
 
 def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Path | None = None,
-        window_s: float = 0.2, cutoff_hz: float = 20.0, plots: bool = True,
-        max_effects: int = I.MAX_EFFECTS) -> dict:
+        window_s: float = 0.2, cutoff_hz: float | None = None, plots: bool = True,
+        max_effects: int | None = None) -> dict:
+    """The whole workflow (module docstring). `cutoff_hz` None: chosen from the data (`choose_cutoff`);
+    `max_effects` None: no cap (the search ends when no candidate passes)."""
     t_start = time.perf_counter()
     out = Path(out)
     trials = load_trials(paths)
@@ -138,6 +164,9 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
     out.mkdir(parents=True, exist_ok=True)
     parts, heldout = split(trials)
     rate = trials[0].rate_hz
+    bandwidth_hz = None
+    if cutoff_hz is None:
+        cutoff_hz, bandwidth_hz = choose_cutoff(trials)
     step = max(1, round(rate / (2 * cutoff_hz)))
     period = trials[0].meta.get("period_s")
     if period:  # make the decimation step divide the period (repeated-segment noise floor)
@@ -152,7 +181,8 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
     loc = localise(blocks, res0, floor, robot)
     lib = I.Library(blocks, nominal)
     sel = I.Selector(lib, train, test, res0, floor)
-    steps, _final, sel_log = I.select(sel, max_effects)
+    torque_kind = trials[0].torque_kind
+    steps, _final, sel_log = select(sel, max_effects, torque_kind)
     effects, ambiguous, added = [], [], []
     for st in steps:
         t = st.term
@@ -216,7 +246,14 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
                          "not_replayed_final": rep_a[0]["not_replayed"]},
         "localisation": loc,
         "selection_log": sel_log,
-        "settings": {"cutoff_hz": cutoff_hz, "decimation_step": step, "decimated_rate_hz": rate / step,
+        "settings": {"cutoff_hz": cutoff_hz, "velocity_bandwidth_hz": bandwidth_hz,
+                     "cutoff_rule": f"{CUTOFF_OVER_BANDWIDTH} x the frequency under which "
+                                    f"{100 * BANDWIDTH_ENERGY:g} % of dq's energy lies (max over joints), "
+                                    f"clipped to [{CUTOFF_MIN_HZ}, rate/10]" if bandwidth_hz else "given",
+                     "decimation_step": step, "decimated_rate_hz": rate / step,
+                     "decimation_rule": "one sample per 1 / (2 cutoff): white noise through the low-pass "
+                                        "leaves nearly uncorrelated samples",
+                     "torque_kind": torque_kind, "max_effects": max_effects,
                      "window_s": window_s, "bic_min": I.BIC_MIN, "heldout_min_pct": I.HELDOUT_MIN_PCT,
                      "ambiguous_bic": I.AMBIGUOUS_BIC,
                      "min_contribution_over_floor": I.MIN_CONTRIBUTION,
