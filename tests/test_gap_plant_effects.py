@@ -13,10 +13,38 @@ from sparc_quad.sim.plant_effects import EFFECT_NAMES, Effect, PlantEffects, Pla
 J = ["q2", "q3", "q4"]
 
 
-def test_names_are_the_eleven():
+def test_names():
     assert EFFECT_NAMES == ("coulomb_friction", "viscous_friction", "stribeck_friction", "rotor_inertia",
                             "torque_gain", "torque_offset", "time_delay", "payload_mass", "encoder_offset",
-                            "torque_saturation", "torque_deadband")
+                            "torque_saturation", "torque_deadband", "asymmetric_coulomb",
+                            "coupled_rotor_inertia", "coupled_coulomb_friction", "coupled_viscous_friction")
+
+
+def test_asymmetric_and_coupled_friction():
+    u = [0.0, 1.0, 1.0]  # one motor on q3 + q4
+    pe = PlantEffects(J, [Effect("coulomb_friction", "q2", {"tau_c_nm": 0.5}),
+                          Effect("asymmetric_coulomb", "q2", {"delta_nm": 0.1}),
+                          Effect("coupled_coulomb_friction", "q4", {"direction": u, "tau_c_nm": 0.2}),
+                          Effect("coupled_viscous_friction", "q4", {"direction": u, "b_nm_s_rad": 0.3}),
+                          Effect("coupled_rotor_inertia", "q4", {"direction": u, "inertia_kg_m2": 0.01})],
+                      1e-4)
+    up = pe.friction_torque(np.array([1.0, 0.0, 0.0]))
+    down = pe.friction_torque(np.array([-1.0, 0.0, 0.0]))
+    assert up[0] == pytest.approx(-0.6) and down[0] == pytest.approx(0.4)  # 0.5 +- 0.1 by direction
+    f = pe.friction_torque(np.array([0.0, 0.5, -0.2]))  # s = 0.3
+    assert f[1] == pytest.approx(-(0.2 + 0.3 * 0.3)) and f[2] == pytest.approx(f[1])
+    f0 = pe.friction_torque(np.array([0.0, 0.5, -0.5]))  # the motor stands still: no coupled friction
+    assert f0[1] == pytest.approx(0.0, abs=1e-9)
+    np.testing.assert_allclose(pe.coupled_inertia_torque(np.array([0.0, 2.0, 1.0])), [0.0, 0.03, 0.03])
+    h = 1e-7
+    dq = np.array([0.3, 0.2, 0.1])
+    for i in range(3):  # slope = diagonal of -d friction / d dq
+        e = np.zeros(3)
+        e[i] = h
+        num = -(pe.friction_torque(dq + e)[i] - pe.friction_torque(dq - e)[i]) / (2 * h)
+        assert pe.friction_slope(dq)[i] == pytest.approx(num, rel=1e-5)
+    with pytest.raises(PlantEffectsError, match="direction"):
+        PlantEffects(J, [Effect("coupled_rotor_inertia", "q4", {"direction": [1, 1], "inertia_kg_m2": 1})])
 
 
 def test_round_trip(tmp_path):

@@ -17,13 +17,12 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import statsmodels.api as sm
 from scipy.optimize import minimize_scalar
 from scipy.signal import butter, sosfiltfilt
 
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial
-from sparc_quad.sim.plant_effects import Effect, PlantEffects
+from sparc_quad.sim.plant_effects import COUPLED, Effect, PlantEffects
 
 BIC_MIN = 10.0
 HELDOUT_MIN_PCT = 1.0
@@ -94,6 +93,7 @@ def residual(block: Block, plant: PlantEffects) -> np.ndarray:
                                  + fr - slope * block.half_step_dq)
     if tr.f_ext is not None:
         tau += rb.ext_torque(q, block.F(tr.f_ext))
+    tau[:, rb.act_idx] -= plant.coupled_inertia_torque(block.ddq_f[:, rb.act_idx])
     return tau - Robot.rnea(model, q, block.dq_f, block.ddq_f)
 
 
@@ -161,6 +161,7 @@ class Term:
     theta: float | None = None
     link: str | None = None
     xyz: np.ndarray | None = None
+    direction: np.ndarray | None = None  # coupled_*: the motor's coordinate s = direction . q_actuated
     coef_index: int = -1  # index of its amplitude in the joint fit
     coef: float = float("nan")
     se: float = float("nan")
@@ -217,6 +218,22 @@ class Library:
         name = term.name
         if name == "coulomb_friction":
             col = self._put(b, v, b.F(th + dth * half))
+        elif name == "asymmetric_coulomb":
+            col = self._put(b, v, b.F(np.abs(th) + np.sign(th) * dth * half))
+        elif name in COUPLED:
+            u = term.direction
+            act = rb.act_idx
+            out = np.zeros((b.n, rb.nv))
+            if name == "coupled_rotor_inertia":
+                sc = b.ddq_f[:, act] @ u
+            elif name == "coupled_viscous_friction":
+                sc = b.dq_mid_f[:, act] @ u
+            else:
+                sv, hs = b.dq_act_raw @ u, b.half_step_dq @ u
+                ts = np.tanh(sv / self.eps)
+                sc = b.F(ts + (1.0 - ts**2) / self.eps * hs)
+            out[:, act] = sc[:, None] * u
+            col = out
         elif name == "viscous_friction":
             col = self._put(b, v, b.dq_mid_f[:, v])
         elif name == "stribeck_friction":
@@ -256,6 +273,35 @@ class Library:
             self._cache.clear()
         self._cache[key] = col
         return col
+
+
+def ols(X: np.ndarray, y: np.ndarray, with_se: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
+    """(beta, standard errors (NaN unless with_se), RSS) of least squares y ~ X.
+
+    Normal equations on unit-norm columns (k is small, a few dozen at most): one k x k solve, which stays
+    fast on a loaded machine where LAPACK's threaded least-squares drivers slow down 50-fold; a badly
+    conditioned design (cond > 1e10) falls back to the SVD solution. Standard errors as statsmodels' OLS
+    (sigma^2 = RSS / (n - k))."""
+    norm = np.sqrt(np.sum(X**2, axis=0))
+    norm[norm == 0] = 1.0
+    Xs = X / norm
+    A = Xs.T @ Xs
+    b = Xs.T @ y
+    try:
+        if np.linalg.cond(A) > 1e10:
+            raise np.linalg.LinAlgError
+        bs = np.linalg.solve(A, b)
+        Ainv = np.linalg.inv(A) if with_se else None
+    except np.linalg.LinAlgError:
+        bs = np.linalg.lstsq(Xs, y, rcond=None)[0]
+        Ainv = np.linalg.pinv(A) if with_se else None
+    beta = bs / norm
+    rss = float(np.sum((y - X @ beta) ** 2))
+    if not with_se:
+        return beta, np.full_like(beta, np.nan), rss
+    dof = max(len(y) - X.shape[1], 1)
+    se = np.sqrt(np.maximum(np.diag(Ainv), 0.0) * rss / dof) / norm
+    return beta, se, rss
 
 
 @dataclass
@@ -301,13 +347,7 @@ class Selector:
         n = len(y)
         k = sum(t.n_params for t in terms)
         if X.shape[1]:
-            if with_se:
-                res = sm.OLS(y, X).fit()
-                beta, se, rss = res.params, res.bse, float(res.ssr)
-            else:
-                beta, *_ = np.linalg.lstsq(X, y, rcond=None)
-                rss = float(np.sum((y - X @ beta) ** 2))
-                se = np.full_like(beta, np.nan)
+            beta, se, rss = ols(X, y, with_se)
         else:
             beta, se, rss = np.zeros(0), np.zeros(0), float(y @ y)
         bic = n * math.log(rss / n) + k * math.log(n)
@@ -355,6 +395,18 @@ class Selector:
             return list(np.linspace(top / 25, top, 25))
         return None
 
+    def _delay(self, selected: list[Term], joint: str) -> tuple[Term, Fit]:
+        dt = self.lib.blocks[0].trial.dt
+        s_max = max(1, round(0.05 / dt))
+        s = _delay_search(lambda k: self.fit([*selected, Term("time_delay", joint, theta=k * dt)]).bic, s_max)
+        best = self.fit([*selected, Term("time_delay", joint, theta=s * dt)])
+        t = best.terms[-1]
+        fm = self.fit([*selected, Term("time_delay", joint, theta=(s - 1) * dt)]).bic
+        fp = self.fit([*selected, Term("time_delay", joint, theta=(s + 1) * dt)]).bic
+        curv = (fp - 2 * best.bic + fm) / dt**2
+        t.theta_se = math.sqrt(2.0 / curv) if curv > 0 else float("inf")
+        return t, best
+
     def candidate(self, selected: list[Term], name: str, joint: str) -> tuple[Term, Fit]:
         grid = self.grid(name, joint)
         if name == "payload_mass":
@@ -373,6 +425,8 @@ class Selector:
         if grid is None:
             t = Term(name, joint)
             return t, self.fit([*selected, t])
+        if name == "time_delay":
+            return self._delay(selected, joint)
         if len(grid) < 2:  # a constant signal: nothing to profile
             t = Term(name, joint, theta=grid[0] if grid else 0.0)
             return t, self.fit([*selected, t])
@@ -400,6 +454,28 @@ class Selector:
         except (ValueError, ZeroDivisionError):
             t.theta_se = float("nan")
         return t, best
+
+
+def _delay_search(bic_of, s_max: int) -> int:
+    """Integer delay (samples) in 1..s_max minimising bic_of: a geometric coarse grid, then brackets
+    around the best point narrowed until every sample in the bracket has been tried (coarse to fine)."""
+    seen: dict[int, float] = {}
+
+    def f(s: int) -> float:
+        if s not in seen:
+            seen[s] = bic_of(s)
+        return seen[s]
+
+    pts = sorted({int(x) for x in np.unique(np.round(np.geomspace(1, s_max, 10)))})
+    while True:
+        vals = [f(p) for p in pts]
+        i = int(np.argmin(vals))
+        lo, hi = pts[max(i - 1, 0)], pts[min(i + 1, len(pts) - 1)]
+        if hi - lo <= 8:
+            for p in range(lo, hi + 1):
+                f(p)
+            return min(seen, key=seen.get)
+        pts = sorted({int(x) for x in np.round(np.linspace(lo, hi, 7))})
 
 
 def lib_dt(sel: Selector) -> float:
@@ -433,6 +509,12 @@ def term_params(t: Term) -> tuple[dict, dict]:
             return {"limit_nm": t.theta}, {"limit_nm": t.theta_se}
         case "torque_deadband":
             return {"width_nm": t.theta}, {"width_nm": t.theta_se}
+        case "asymmetric_coulomb":
+            return {"delta_nm": c}, {"delta_nm": se}
+        case "coupled_rotor_inertia" | "coupled_coulomb_friction" | "coupled_viscous_friction":
+            key = {"coupled_rotor_inertia": "inertia_kg_m2", "coupled_coulomb_friction": "tau_c_nm",
+                   "coupled_viscous_friction": "b_nm_s_rad"}[t.name]
+            return {"direction": [float(x) for x in t.direction], key: c}, {key: se}
     raise KeyError(t.name)
 
 

@@ -24,7 +24,7 @@ def replay(trial: Trial, robot: Robot, plant: PlantEffects, window_s: float = 0.
     w = max(2, round(window_s / dt))
     act = robot.act_idx
     arm = np.zeros(robot.nv)
-    arm[act] = plant.armature()
+    arm[act] = plant.armature() + np.diag(plant.coupled_M)
     stuck = robot.massless_joints(arm)
     pres = np.array([robot.joints.index(j) for j in stuck], dtype=int)
     ddq_meas = np.vstack([np.diff(trial.dq, axis=0) / dt, np.zeros((1, robot.nv))])
@@ -36,6 +36,7 @@ def replay(trial: Trial, robot: Robot, plant: PlantEffects, window_s: float = 0.
     tau = np.zeros(robot.nv)
     win_rms, starts = [], []
     lo, hi = robot.lower, robot.upper
+    dq_max = 10.0 * np.max(np.abs(trial.dq), axis=0) + 1.0  # a diverging window stays finite (and large)
     for s in range(0, n - 1, w):
         e = min(s + w, n)
         q, dq = q_meas[s].copy(), trial.dq[s].copy()
@@ -49,6 +50,7 @@ def replay(trial: Trial, robot: Robot, plant: PlantEffects, window_s: float = 0.
                 tau += ext[k]
             q, dq = robot.forward_step(model, data, q, dq, tau, plant, dt, pres, ddq_meas[k, pres])
             q = np.clip(q, lo - 1.0, hi + 1.0)
+            dq = np.clip(dq, -dq_max, dq_max)
         err = q_sim[s:e] - q_meas[s:e]
         win_rms.append(np.sqrt(np.mean(err**2, axis=0)))
         starts.append(trial.t[s])

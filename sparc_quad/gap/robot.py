@@ -122,6 +122,7 @@ class Robot:
         act = self.act_idx
         M = pin.crba(model, data, q)
         M = np.triu(M) + np.triu(M, 1).T
+        M[np.ix_(act, act)] += plant.coupled_M
         h = pin.rnea(model, data, q, dq, np.zeros(self.nv))
         rhs = tau - h
         fr, slope = plant.friction_and_slope(dq[act])

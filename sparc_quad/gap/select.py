@@ -34,11 +34,11 @@ from sparc_quad.gap.identify import (
     Term,
     term_params,
 )
-from sparc_quad.sim.plant_effects import EFFECT_NAMES
+from sparc_quad.sim.plant_effects import COUPLED, EFFECT_NAMES
 
 ON_COMMAND = ("time_delay", "torque_saturation", "torque_deadband")
 GROUP = ("coulomb_friction", "viscous_friction", "rotor_inertia")
-MULTI_JOINT = ("payload_mass", "encoder_offset")
+MULTI_JOINT = ("payload_mass", "encoder_offset", *COUPLED)
 SATURATED_FRACTION = (0.005, 0.30)
 
 
@@ -104,6 +104,14 @@ def plausible(t: Term, sc: JointScale, total_mass_kg: float) -> str | None:
                               "limit must lie below the peak command"),
         "torque_deadband": (0 < p.get("width_nm", 0) < 0.5 * sc.tau_peak,
                             "deadband must be below half the peak"),
+        "asymmetric_coulomb": (abs(p.get("delta_nm", 0)) < 0.5 * sc.tau_range,
+                               "Coulomb asymmetry beyond half the torque range"),
+        "coupled_rotor_inertia": (0 < p.get("inertia_kg_m2", 0) < i_max,
+                                  f"coupled rotor inertia must be in (0, {i_max:.3g}) kg*m^2"),
+        "coupled_coulomb_friction": (0 < p.get("tau_c_nm", 0) < 0.5 * sc.tau_range,
+                                     "coupled Coulomb friction must be in (0, torque range / 2)"),
+        "coupled_viscous_friction": (0 < p.get("b_nm_s_rad", 0) < b_max,
+                                     f"coupled viscous coefficient must be in (0, {b_max:.3g})"),
     }
     ok, why = checks[t.name]
     if not ok:
@@ -124,14 +132,19 @@ def plausible(t: Term, sc: JointScale, total_mass_kg: float) -> str | None:
 class Search:
     """State of one stepwise search (see the module docstring)."""
 
-    def __init__(self, sel: Selector, torque_kind: str = "commanded"):
+    def __init__(self, sel: Selector, torque_kind: str = "commanded",
+                 couplings: list[tuple[str, np.ndarray]] = ()):
         self.sel = sel
         self.rb = sel.robot
         self.scale, self.mass = scales(sel)
-        self.names = [n for n in EFFECT_NAMES if not (torque_kind == "measured" and n in ON_COMMAND)]
+        self.names = [n for n in EFFECT_NAMES if not (torque_kind == "measured" and n in ON_COMMAND)
+                      and n not in COUPLED and n != "asymmetric_coulomb"]
+        self.couplings = list(couplings)
         self.log: list[dict] = []
 
     def joints_of(self, t: Term) -> list[int]:
+        if t.direction is not None:
+            return [int(v) for v in self.rb.act_idx[np.abs(t.direction) > 0]]
         if t.name in MULTI_JOINT:
             return list(range(self.rb.nv))
         return [int(self.rb.act_idx[self.rb.actuated.index(t.joint)])]
@@ -187,6 +200,14 @@ class Search:
             rest = [n for n in GROUP if (n, joint) not in taken and n in self.names]
             if len(rest) >= 2:
                 options.append([Term(n, joint) for n in rest])
+            # a direction-dependent Coulomb level refines a Coulomb friction already in the model
+            if ("coulomb_friction", joint) in taken and ("asymmetric_coulomb", joint) not in taken:
+                options.append([Term("asymmetric_coulomb", joint)])
+        for joint, u in self.couplings:  # a motor that turns with several joints (transmission)
+            rest = [Term(n, joint, direction=u) for n in COUPLED if (n, joint) not in taken]
+            options += [[t] for t in rest]
+            if len(rest) >= 2:
+                options.append(rest)
         for opt in options:
             if isinstance(opt, tuple):
                 term, fit = sel.candidate(selected, *opt)
@@ -197,16 +218,17 @@ class Search:
             keys = frozenset({*taken, *(t.key for t in new)})
             if keys in visited:
                 continue
-            full = self.assign([*selected, *new])
-            why = self.why_not(new, full)
             dbic = fit.bic - cur.bic
             imp = self.improvement(fit, cur, new)
+            if dbic > -BIC_MIN:  # cheap rejection first: no standard errors needed
+                out.append((fit.bic, new, fit, dbic, imp, f"dBIC {dbic:.1f} > -{BIC_MIN}"))
+                continue
+            full = self.assign([*selected, *new])
+            why = self.why_not(new, full)
             size = self.contribution(fit, new)
             if size < MIN_CONTRIBUTION:
                 why = why or f"contribution {size:.2f} x noise floor < {MIN_CONTRIBUTION}"
-            if dbic > -BIC_MIN:
-                why = why or f"dBIC {dbic:.1f} > -{BIC_MIN}"
-            elif sel.test and not imp >= HELDOUT_MIN_PCT:
+            if sel.test and not imp >= HELDOUT_MIN_PCT:
                 why = why or f"held-out improvement {imp:.2f} % < {HELDOUT_MIN_PCT} %"
             out.append((fit.bic, new, fit, dbic, imp, why))
         out.sort(key=lambda c: c[0])
@@ -225,6 +247,9 @@ class Search:
                 gain = without.bic - cur.bic  # what keeping t is worth
                 imp = self.improvement(cur, without, [t])
                 why = plausible(t, self.scale[t.joint], self.mass)
+                if why is None and t.name == "asymmetric_coulomb" and \
+                        ("coulomb_friction", t.joint) not in {x.key for x in rest}:
+                    why = "refines a Coulomb friction no longer in the model"
                 if why is None and gain < BIC_MIN:
                     why = f"worth dBIC {-gain:.1f} > -{BIC_MIN} now"
                 if why is None and sel.test and not imp >= HELDOUT_MIN_PCT:
@@ -279,6 +304,23 @@ class Search:
         return steps, final, self.log
 
 
-def select(sel: Selector, max_effects: int | None = None, torque_kind: str = "commanded"):
+def couplings_from(meta: dict, actuated: list[str]) -> list[tuple[str, np.ndarray]]:
+    """Motors that turn with more than one joint, from the sidecar's transmission: motor m's angle is row m
+    of G^-1 applied to the joint angles; a row with >= 2 non-zero entries is a coupled motor. Returns
+    (the joint listed with that motor, direction u = the row scaled to max |u| = 1)."""
+    tr = meta.get("transmission")
+    if not tr:
+        return []
+    Ginv = np.linalg.inv(np.asarray(tr["motor_to_joint"], float))
+    out = []
+    for m, row in enumerate(Ginv):
+        big = np.abs(row) > 1e-9 * np.abs(row).max()
+        if big.sum() >= 2:
+            out.append((actuated[m], row / np.abs(row).max()))
+    return out
+
+
+def select(sel: Selector, max_effects: int | None = None, torque_kind: str = "commanded",
+           couplings: list[tuple[str, np.ndarray]] = ()):
     """(accepted steps, final fit, log) of the stepwise search."""
-    return Search(sel, torque_kind).run(max_effects)
+    return Search(sel, torque_kind, couplings).run(max_effects)

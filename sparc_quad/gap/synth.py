@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial, save_trial
-from sparc_quad.sim.plant_effects import EFFECT_PARAMS, Effect, PlantEffects
+from sparc_quad.sim.plant_effects import COUPLED, EFFECT_PARAMS, Effect, PlantEffects
 from spine_module import params as P
 from spine_module.messages.motor import MotorCommand
 
@@ -44,6 +44,10 @@ SYNTH_DEFAULTS: dict[str, dict] = {
     "encoder_offset": {"offset_rad": 0.05},
     "torque_saturation": {"limit_fraction": 0.8},  # of the joint's peak |tau_cmd| in a nominal run
     "torque_deadband": {"width_nm": 0.1},
+    "asymmetric_coulomb": {"delta_nm": 0.06},
+    "coupled_rotor_inertia": {"inertia_kg_m2": 2.0 * P.REFLECTED_ROTOR_INERTIA_KG_M2},
+    "coupled_coulomb_friction": {"tau_c_nm": 0.15},
+    "coupled_viscous_friction": {"b_nm_s_rad": 0.15},
 }
 
 
@@ -64,7 +68,7 @@ def parse_effect_spec(spec: str, robot: Robot, default_joint: str | None = None)
         raise ValueError(f"{spec!r}: joint {joint!r} is not an actuated joint ({robot.actuated})")
     params = dict(SYNTH_DEFAULTS[name])
     for k, v in kv.items():
-        if k == "xyz_m":
+        if k in ("xyz_m", "direction"):
             params[k] = [float(x) for x in v.split(";")]
         else:
             params[k] = float(v)
@@ -72,6 +76,8 @@ def parse_effect_spec(spec: str, robot: Robot, default_joint: str | None = None)
     if name == "payload_mass":
         params.setdefault("xyz_m", robot.link_com(joint).tolist())
         link = robot.child_link(joint)
+    if name in COUPLED and "direction" not in params:
+        raise ValueError(f"{spec!r}: {name} needs direction=u1;u2;... (one entry per actuated joint)")
     allowed = set(EFFECT_PARAMS[name]) | ({"limit_fraction"} if name == "torque_saturation" else set())
     unknown = set(params) - allowed
     if unknown:

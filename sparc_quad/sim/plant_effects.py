@@ -10,7 +10,7 @@ Schema (JSON, SI units)::
      "friction_smoothing_rad_s": 0.01,          # sign(dq) is tanh(dq / this), as in eq. (4)
      "effects": [{"name": "coulomb_friction", "joint": "q3", "params": {"tau_c_nm": 0.1}}, ...]}
 
-Effect names and parameters (the eleven of the gap workflow; several entries of one kind add up):
+Effect names and parameters (the gap workflow's library; several entries of one kind add up):
 
     coulomb_friction   joint  tau_c_nm                 friction  -tau_c tanh(dq/eps)
     viscous_friction   joint  b_nm_s_rad               friction  -b dq
@@ -25,6 +25,12 @@ Effect names and parameters (the eleven of the gap workflow; several entries of 
     encoder_offset     joint  offset_rad               measured q = true q + offset
     torque_saturation  joint  limit_nm                 applied clipped to +-limit
     torque_deadband    joint  width_nm                 applied = sign(c) max(|c| - width, 0)
+    asymmetric_coulomb joint  delta_nm                 friction  -delta |tanh(dq/eps)|: the Coulomb level
+                                                       is tau_c + delta moving +, tau_c - delta moving -
+    coupled_rotor_inertia     direction, inertia_kg_m2 one motor turning with s = u . q (u: `direction`,
+    coupled_coulomb_friction  direction, tau_c_nm      one entry per joint, e.g. a wrist motor on q5 + q6):
+    coupled_viscous_friction  direction, b_nm_s_rad    M += I u u^T; friction -u (tau_c tanh(s'/eps) + b s')
+                                                       (`joint` names the joint the motor is listed with)
 
 Actuator chain per control step, in this order: delay -> deadband -> gain -> offset -> saturation.
 
@@ -64,7 +70,12 @@ EFFECT_PARAMS: dict[str, tuple[str, ...]] = {
     "encoder_offset": ("offset_rad",),
     "torque_saturation": ("limit_nm",),
     "torque_deadband": ("width_nm",),
+    "asymmetric_coulomb": ("delta_nm",),
+    "coupled_rotor_inertia": ("direction", "inertia_kg_m2"),
+    "coupled_coulomb_friction": ("direction", "tau_c_nm"),
+    "coupled_viscous_friction": ("direction", "b_nm_s_rad"),
 }
+COUPLED = ("coupled_rotor_inertia", "coupled_coulomb_friction", "coupled_viscous_friction")
 EFFECT_NAMES: tuple[str, ...] = tuple(EFFECT_PARAMS)
 
 
@@ -127,6 +138,9 @@ class PlantEffects:
         self.stribeck: list[tuple[int, float, float]] = []  # (joint index, tau_s, dq_s); several add up
         self.gain, self.offset, self.delay = np.ones(n), z(n), z(n)
         self.enc_offset, self.limit, self.deadband = z(n), np.full(n, np.inf), z(n)
+        self.asym = z(n)
+        self.coupled_M = np.zeros((n, n))  # sum of I u u^T
+        self.coupled_fr: list[tuple[np.ndarray, float, float]] = []  # (u, tau_c, b)
         for e in self.effects:
             j = self.joints.index(e.joint)
             p = e.params
@@ -153,6 +167,18 @@ class PlantEffects:
                     self.deadband[j] += p["width_nm"]
                 case "payload_mass":
                     pass
+                case "asymmetric_coulomb":
+                    self.asym[j] += p["delta_nm"]
+                case "coupled_rotor_inertia" | "coupled_coulomb_friction" | "coupled_viscous_friction":
+                    u = np.asarray(p["direction"], dtype=float)
+                    if u.shape != (n,) or not np.all(np.isfinite(u)):
+                        raise PlantEffectsError(f"effect {e.name}: direction needs {n} finite numbers")
+                    if e.name == "coupled_rotor_inertia":
+                        self.coupled_M += float(p["inertia_kg_m2"]) * np.outer(u, u)
+                    elif e.name == "coupled_coulomb_friction":
+                        self.coupled_fr.append((u, float(p["tau_c_nm"]), 0.0))
+                    else:
+                        self.coupled_fr.append((u, 0.0, float(p["b_nm_s_rad"])))
         # Stribeck terms as arrays: joint index, amplitude, velocity, and a (n, terms) indicator
         self._st_j = np.array([s[0] for s in self.stribeck], dtype=int)
         self._st_tau = np.array([s[1] for s in self.stribeck], dtype=float)
@@ -233,9 +259,18 @@ class PlantEffects:
             e = self._st_tau * np.exp(-(x**2))
             mag = mag + e @ self._st_sum.T
             dmag = (e * (-2.0 * x / self._st_dqs)) @ self._st_sum.T
-        torque = -(mag * th + self.viscous * dq)
-        slope = dmag * th + mag * (1.0 - th**2) / self.eps + self.viscous
+        torque = -(mag * th + self.viscous * dq + self.asym * np.abs(th))
+        slope = dmag * th + (mag + self.asym * np.sign(th)) * (1.0 - th**2) / self.eps + self.viscous
+        for u, tc, b in self.coupled_fr:  # slope: the diagonal of the coupled Jacobian
+            sv = dq @ u
+            ts = np.tanh(sv / self.eps)
+            torque = torque - (tc * ts + b * sv)[..., None] * u
+            slope = slope + (tc * (1.0 - ts**2) / self.eps + b)[..., None] * u**2
         return torque, slope
+
+    def coupled_inertia_torque(self, ddq: np.ndarray) -> np.ndarray:
+        """Torque the coupled rotor inertias need for joint accelerations ddq ((n,) or (N, n))."""
+        return np.asarray(ddq, dtype=float) @ self.coupled_M.T
 
     def friction_slope(self, dq: np.ndarray) -> np.ndarray:
         """-d friction_torque / d dq (>= 0 where dissipative): for linearly-implicit integration."""
