@@ -29,7 +29,7 @@ HELDOUT_MIN_PCT = 1.0
 AMBIGUOUS_BIC = 6.0
 HELDOUT_TIE = 1.1  # held-out MSE ratio under which two training-tied candidates stay ambiguous
 MIN_CONTRIBUTION = 0.3  # an effect smaller than this x the noise floor changes the gap by < 5 %: not named
-MOVING_FRACTION = 0.1  # a joint is moving where |dq| exceeds this fraction of its RMS velocity
+MOVING_FRACTION = 0.02  # a joint is moving where |dq| exceeds this fraction of its RMS velocity
 EDGE_S = 0.15  # filter edge margin dropped at each end of a block
 
 
