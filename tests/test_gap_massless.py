@@ -47,15 +47,15 @@ def test_massless_link_warned_by_name(urdf, caplog):
 
 def test_flange_rotor_inertia_named_and_replayed(urdf, tmp_path):
     act = ["shoulder", "elbow", "flange"]
-    res = synth(tmp_path / "trials", ["rotor_inertia:joint=flange,inertia_kg_m2=2e-4"], seed=4, n_trials=3,
+    # the flange's rotor inertia is all it moves: 2e-3 kg m^2 against 5 mN m of torque noise
+    res = synth(tmp_path / "trials", ["rotor_inertia:joint=flange,inertia_kg_m2=2e-3"], seed=4, n_trials=3,
                 periods=3, period_s=1.5, amp_rad=0.4, urdf=urdf, actuated=act, fixed={"mount": 0.3},
-                nominal=PlantEffects(act))
+                nominal=PlantEffects(act), torque_noise_nm=0.005)
     rep = run(res["trials"], tmp_path / "out", plots=True)
     assert rep["model_checks"]["massless_joints"] == ["flange"]
     assert rep["model_checks"]["not_replayed_nominal"] == ["flange"]  # nothing to integrate it with
     assert rep["gap_before"]["replay_rms_rad"]["flange"] is None
-    named = {(e["name"], e["joint"]) for e in rep["effects"]}
-    assert ("rotor_inertia", "flange") in named, rep["effects"]
+    assert [(e["name"], e["joint"]) for e in rep["effects"]] == [("rotor_inertia", "flange")], rep["effects"]
     assert rep["model_checks"]["not_replayed_final"] == []  # the identified rotor inertia makes it replayable
     assert rep["gap_after"]["replay_rms_rad"]["flange"] is not None
     assert "not replayed" in (tmp_path / "out" / "report.md").read_text()
