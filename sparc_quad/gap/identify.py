@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import butter, sosfiltfilt
 
+from sparc_quad.gap.base_params import BaseParameters, regressor
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial
 from sparc_quad.sim.plant_effects import COUPLED, Effect, PlantEffects
@@ -162,14 +163,18 @@ class Term:
     link: str | None = None
     xyz: np.ndarray | None = None
     direction: np.ndarray | None = None  # coupled_*: the motor's coordinate s = direction . q_actuated
+    param_index: int | None = None  # link_inertia: standard-parameter column (10 (body - 1) + k)
+    combination: str = ""  # link_inertia: the identifiable combination it stands for
     coef_index: int = -1  # index of its amplitude in the joint fit
     coef: float = float("nan")
     se: float = float("nan")
     theta_se: float = float("nan")
 
     @property
-    def key(self) -> tuple[str, str]:
-        return (self.name, self.joint)
+    def key(self) -> tuple:
+        if self.param_index is None:
+            return (self.name, self.joint)
+        return (self.name, self.joint, self.param_index)
 
     @property
     def fixed(self) -> bool:
@@ -192,6 +197,21 @@ class Library:
         self.eps = nominal.eps
         self._cache: dict = {}
         self.models = [self.robot.plant_model(nominal)] * len(blocks)
+        self._regressors: dict[int, np.ndarray] = {}
+        self._base: BaseParameters | None = None
+
+    def regressor(self, bi: int) -> np.ndarray:
+        """(n_dec, nv, 10 nbodies) joint-torque regressor of block bi (nominal model, filtered signals)."""
+        if bi not in self._regressors:
+            b = self.blocks[bi]
+            self._regressors[bi] = regressor(self.models[bi], b.q_f(self.nominal), b.dq_f, b.ddq_f)
+        return self._regressors[bi]
+
+    def base_parameters(self, train: list[int]) -> BaseParameters:
+        if self._base is None:
+            W = np.vstack([self.regressor(bi).reshape(-1, self.regressor(bi).shape[2]) for bi in train])
+            self._base = BaseParameters(self.models[0], W)
+        return self._base
 
     def joint_v(self, joint: str) -> int:
         return int(self.robot.act_idx[self.robot.actuated.index(joint)])
@@ -203,7 +223,7 @@ class Library:
 
     def column(self, term: Term, bi: int) -> np.ndarray:
         """(n_dec, nv) column for block bi (linear amplitude 1, or the fixed map)."""
-        key = (term.name, term.joint, term.theta, bi)
+        key = (term.name, term.joint, term.theta, term.param_index, bi)
         if key in self._cache:
             return self._cache[key]
         b = self.blocks[bi]
@@ -218,6 +238,8 @@ class Library:
         name = term.name
         if name == "coulomb_friction":
             col = self._put(b, v, b.F(th + dth * half))
+        elif name == "link_inertia":
+            col = self.regressor(bi)[:, :, term.param_index]
         elif name == "asymmetric_coulomb":
             col = self._put(b, v, b.F(np.abs(th) + np.sign(th) * dth * half))
         elif name in COUPLED:
@@ -511,6 +533,9 @@ def term_params(t: Term) -> tuple[dict, dict]:
             return {"width_nm": t.theta}, {"width_nm": t.theta_se}
         case "asymmetric_coulomb":
             return {"delta_nm": c}, {"delta_nm": se}
+        case "link_inertia":
+            return ({"param_index": t.param_index % 10, "delta": c, "combination": t.combination},
+                    {"delta": se})
         case "coupled_rotor_inertia" | "coupled_coulomb_friction" | "coupled_viscous_friction":
             key = {"coupled_rotor_inertia": "inertia_kg_m2", "coupled_coulomb_friction": "tau_c_nm",
                    "coupled_viscous_friction": "b_nm_s_rad"}[t.name]

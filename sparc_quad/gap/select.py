@@ -32,13 +32,14 @@ from sparc_quad.gap.identify import (
     Fit,
     Selector,
     Term,
+    term_effect,
     term_params,
 )
-from sparc_quad.sim.plant_effects import COUPLED, EFFECT_NAMES
+from sparc_quad.sim.plant_effects import COUPLED, EFFECT_NAMES, PlantEffectsError
 
 ON_COMMAND = ("time_delay", "torque_saturation", "torque_deadband")
 GROUP = ("coulomb_friction", "viscous_friction", "rotor_inertia")
-MULTI_JOINT = ("payload_mass", "encoder_offset", *COUPLED)
+MULTI_JOINT = ("payload_mass", "encoder_offset", "link_inertia", *COUPLED)
 SATURATED_FRACTION = (0.005, 0.30)
 
 
@@ -104,6 +105,7 @@ def plausible(t: Term, sc: JointScale, total_mass_kg: float) -> str | None:
                               "limit must lie below the peak command"),
         "torque_deadband": (0 < p.get("width_nm", 0) < 0.5 * sc.tau_peak,
                             "deadband must be below half the peak"),
+        "link_inertia": (np.isfinite(p.get("delta", np.nan)), "not finite"),
         "asymmetric_coulomb": (abs(p.get("delta_nm", 0)) < 0.5 * sc.tau_range,
                                "Coulomb asymmetry beyond half the torque range"),
         "coupled_rotor_inertia": (0 < p.get("inertia_kg_m2", 0) < i_max,
@@ -138,7 +140,7 @@ class Search:
         self.rb = sel.robot
         self.scale, self.mass = scales(sel)
         self.names = [n for n in EFFECT_NAMES if not (torque_kind == "measured" and n in ON_COMMAND)
-                      and n not in COUPLED and n != "asymmetric_coulomb"]
+                      and n not in COUPLED and n not in ("asymmetric_coulomb", "link_inertia")]
         self.couplings = list(couplings)
         self.log: list[dict] = []
 
@@ -180,11 +182,23 @@ class Search:
             tot = col if tot is None else tot + col
         return float(np.max(np.sqrt(np.mean(tot**2, axis=0))))
 
+    def significant(self, selected: list[Term], terms: list[Term]) -> list[Term]:
+        """Of a link's base parameters, those > 2 standard errors when fitted together (all if none)."""
+        self.assign([*selected, *terms])
+        keep = [t for t in terms if np.isfinite(t.se) and abs(t.coef) > 2 * t.se]
+        return keep or terms
+
     def why_not(self, terms: list[Term], fit: Fit) -> str | None:
         for t in terms:
             why = plausible(t, self.scale[t.joint], self.mass)
             if why:
                 return f"{t.name}@{t.joint}: {why}"
+        links = [term_effect(t) for t in fit.terms if t.name == "link_inertia"]
+        if links:  # the corrected bodies must still have a positive mass
+            try:
+                self.sel.lib.nominal.with_effects(links).apply_to_pinocchio(self.rb.model)
+            except PlantEffectsError as exc:
+                return str(exc)
         return None
 
     def candidates(self, selected: list[Term], cur: Fit, visited: set) -> list[tuple]:
@@ -203,6 +217,14 @@ class Search:
             # a direction-dependent Coulomb level refines a Coulomb friction already in the model
             if ("coulomb_friction", joint) in taken and ("asymmetric_coulomb", joint) not in taken:
                 options.append([Term("asymmetric_coulomb", joint)])
+        for joint in self.rb.actuated:  # link inertial-parameter errors: the body's base parameters
+            base = sel.lib.base_parameters(sel.train)
+            jid = self.rb.model.getJointId(joint)
+            link = [Term("link_inertia", joint, param_index=c, combination=base.combination(c),
+                         link=self.rb.child_link(joint)) for c in base.columns_of(jid)]
+            link = [t for t in link if t.key not in taken]
+            if link:
+                options.append(self.significant(selected, link))
         for joint, u in self.couplings:  # a motor that turns with several joints (transmission)
             rest = [Term(n, joint, direction=u) for n in COUPLED if (n, joint) not in taken]
             options += [[t] for t in rest]

@@ -31,6 +31,10 @@ Effect names and parameters (the gap workflow's library; several entries of one 
     coupled_coulomb_friction  direction, tau_c_nm      one entry per joint, e.g. a wrist motor on q5 + q6):
     coupled_viscous_friction  direction, b_nm_s_rad    M += I u u^T; friction -u (tau_c tanh(s'/eps) + b s')
                                                        (`joint` names the joint the motor is listed with)
+    link_inertia       joint  param_index, delta       error `delta` in standard dynamic parameter
+                                                       `param_index` (pinocchio order m, mx, my, mz, Ixx, Ixy,
+                                                       Iyy, Ixz, Iyz, Izz; SI) of the joint's body; the gap
+                                                       report adds the identifiable `combination`
 
 Actuator chain per control step, in this order: delay -> deadband -> gain -> offset -> saturation.
 
@@ -74,6 +78,7 @@ EFFECT_PARAMS: dict[str, tuple[str, ...]] = {
     "coupled_rotor_inertia": ("direction", "inertia_kg_m2"),
     "coupled_coulomb_friction": ("direction", "tau_c_nm"),
     "coupled_viscous_friction": ("direction", "b_nm_s_rad"),
+    "link_inertia": ("param_index", "delta"),
 }
 COUPLED = ("coupled_rotor_inertia", "coupled_coulomb_friction", "coupled_viscous_friction")
 EFFECT_NAMES: tuple[str, ...] = tuple(EFFECT_PARAMS)
@@ -305,6 +310,17 @@ class PlantEffects:
                 raise PlantEffectsError(f"joint {name!r} not in the pinocchio model")
             jid = m.getJointId(name)
             m.armature[m.joints[jid].idx_v] += self.arm[j]
+        deltas: dict[int, np.ndarray] = {}
+        for e in self.effects:
+            if e.name == "link_inertia":
+                jid = m.getJointId(e.joint)
+                deltas.setdefault(jid, np.zeros(10))[int(e.params["param_index"])] += float(e.params["delta"])
+        for jid, dpi in deltas.items():
+            pi = m.inertias[jid].toDynamicParameters() + dpi
+            if not pi[0] > 0:
+                raise PlantEffectsError(f"link_inertia on {m.names[jid]!r}: mass {pi[0]:.4g} kg is not "
+                                        "positive")
+            m.inertias[jid] = pin.Inertia.FromDynamicParameters(pi)
         for e in self.payloads():
             jid = m.getJointId(e.joint)
             xyz = np.asarray(e.params.get("xyz_m", [0.0, 0.0, 0.0]), dtype=float)
