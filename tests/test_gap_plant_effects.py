@@ -17,7 +17,8 @@ def test_names():
     assert EFFECT_NAMES == ("coulomb_friction", "viscous_friction", "stribeck_friction", "rotor_inertia",
                             "torque_gain", "torque_offset", "time_delay", "payload_mass", "encoder_offset",
                             "torque_saturation", "torque_deadband", "asymmetric_coulomb",
-                            "coupled_rotor_inertia", "coupled_coulomb_friction", "coupled_viscous_friction")
+                            "coupled_rotor_inertia", "coupled_coulomb_friction", "coupled_viscous_friction",
+                            "link_inertia")
 
 
 def test_asymmetric_and_coupled_friction():
