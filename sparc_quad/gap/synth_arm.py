@@ -16,7 +16,8 @@ Controller: computed torque from the URDF (massless flange) along a Fourier-seri
 identification trajectory) plus joint PD; the drives apply the commanded currents. The log records what a
 real arm logs: motor encoder positions (quantised), motor velocities and measured motor currents (A,
 sensor noise), with the transmission and torque constants in the sidecar (`torque_kind: measured`).
-`truth.json` names every hidden effect with its parameters; the workflow never reads it.
+`truth.json` names every hidden effect with its parameters, `true_plant.json` is the same truth as a
+plant-effects file (link scales as `link_inertia` errors); the workflow reads neither.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import pinocchio as pin
 
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.synth import Excitation
+from sparc_quad.sim.plant_effects import EFFECT_PARAMS, Effect, PlantEffects
 
 JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
           "wrist_3_joint"]
@@ -298,7 +300,23 @@ def synth_arm(out: str | Path, *, seed: int = 0, n_trials: int = 3, periods: int
         paths.append(write_log(out / f"arm_{i:02d}.csv", run, case, meta, motor_side, with_dq))
     tru = truth(robot, case) | {"seed": seed, "motor_side": motor_side}
     (out / "truth.json").write_text(json.dumps(tru, indent=2) + "\n")
-    return {"trials": paths, "truth": tru, "urdf": urdf}
+    true_plant(robot, tru).save(out / "true_plant.json")
+    return {"trials": paths, "truth": tru, "urdf": urdf, "true_plant": out / "true_plant.json"}
+
+
+def true_plant(robot: Robot, truth_: dict) -> PlantEffects:
+    """The truth as a plant-effects file (never read by `gap`): the motors' effects as named, and each
+    link's scale as `link_inertia` errors of its standard dynamic parameters (all ten scale together)."""
+    effects = [Effect(e["name"], e["joint"], e["params"]) for e in truth_["hidden"]
+               if e["name"] in EFFECT_PARAMS]
+    for e in truth_["hidden"]:
+        if e["name"] == "link_inertia_error":
+            jid = _joint_of_link(robot.model, e["link"])
+            pi = robot.model.inertias[jid].toDynamicParameters()
+            effects += [Effect("link_inertia", robot.model.names[jid],
+                               {"param_index": i, "delta": float((e["params"]["scale"] - 1.0) * pi[i])})
+                        for i in range(10) if pi[i] != 0.0]
+    return PlantEffects(JOINTS, effects, truth_["friction_smoothing_rad_s"])
 
 
 def joint_effect_torque(truth_: dict, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
