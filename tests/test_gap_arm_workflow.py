@@ -28,7 +28,9 @@ def check(rep: dict, inertia_joints) -> list[str]:
         if not any((n, j) in eff for n in FRICTION):
             errs.append(f"no friction on {j}")
     for j in inertia_joints:
-        if ("rotor_inertia", j) not in eff:
+        # a rotor inertia adds a constant to M_jj, as the link's own inertia about the joint axis does: the
+        # two are one base parameter, named either way
+        if ("rotor_inertia", j) not in eff and not any(n == "link_inertia" and jj == j for n, jj in eff):
             errs.append(f"no rotor inertia on {j}")
     if not any(n.startswith("coupled_") for n, _ in eff):
         errs.append("wrist coupling not named")
