@@ -234,7 +234,8 @@ class Library:
         half = b.half_step_dq[:, ja]
         th = np.tanh(dq / self.eps)
         dth = (1.0 - th**2) / self.eps
-        tau = self.nominal.applied_torque_series(b.trial.tau_cmd, b.trial.dt)[:, ja]
+        if term.name in ("torque_gain", "time_delay", "torque_saturation", "torque_deadband"):
+            tau = self.nominal.applied_torque_series(b.trial.tau_cmd, b.trial.dt)[:, ja]
         name = term.name
         if name == "coulomb_friction":
             col = self._put(b, v, b.F(th + dth * half))
@@ -302,7 +303,8 @@ def ols(X: np.ndarray, y: np.ndarray, with_se: bool = False) -> tuple[np.ndarray
 
     Normal equations on unit-norm columns (k is small, a few dozen at most): one k x k solve, which stays
     fast on a loaded machine where LAPACK's threaded least-squares drivers slow down 50-fold; a badly
-    conditioned design (cond > 1e10) falls back to the SVD solution. Standard errors as statsmodels' OLS
+    conditioned design (cond > 1e10, estimated from the Cholesky factor) falls back to the k x k
+    pseudo-inverse (minimum-norm solution). Standard errors as statsmodels' OLS
     (sigma^2 = RSS / (n - k))."""
     norm = np.sqrt(np.sum(X**2, axis=0))
     norm[norm == 0] = 1.0
@@ -310,13 +312,15 @@ def ols(X: np.ndarray, y: np.ndarray, with_se: bool = False) -> tuple[np.ndarray
     A = Xs.T @ Xs
     b = Xs.T @ y
     try:
-        if np.linalg.cond(A) > 1e10:
+        L = np.linalg.cholesky(A)
+        d = np.diag(L)
+        if (d.max() / d.min()) ** 2 > 1e10:  # condition number of A, estimated from its Cholesky factor
             raise np.linalg.LinAlgError
         bs = np.linalg.solve(A, b)
         Ainv = np.linalg.inv(A) if with_se else None
-    except np.linalg.LinAlgError:
-        bs = np.linalg.lstsq(Xs, y, rcond=None)[0]
-        Ainv = np.linalg.pinv(A) if with_se else None
+    except np.linalg.LinAlgError:  # (nearly) collinear columns: the minimum-norm solution
+        Ainv = np.linalg.pinv(A, rcond=1e-10, hermitian=True)
+        bs = Ainv @ b
     beta = bs / norm
     rss = float(np.sum((y - X @ beta) ** 2))
     if not with_se:
@@ -347,6 +351,17 @@ class Selector:
         self.base = base_res
         self.w = 1.0 / np.maximum(sigma, 1e-9)
         self.robot = lib.robot
+        self._flat_cache: dict = {}
+
+    def _flat(self, t: Term, bi: int) -> np.ndarray:
+        """The term's column for block bi, whitened and flattened joint by joint (cached)."""
+        key = (t.name, t.joint, t.theta, t.param_index, bi)
+        col = self._flat_cache.get(key)
+        if col is None:
+            if len(self._flat_cache) > 4000:
+                self._flat_cache.clear()
+            col = self._flat_cache[key] = (self.lib.column(t, bi) * self.w).reshape(-1, order="F")
+        return col
 
     def _design(self, terms: list[Term], blocks: list[int]):
         ys, xs = [], []
@@ -358,8 +373,7 @@ class Selector:
                     y = y - self.lib.column(t, bi)
             ys.append((y * self.w).reshape(-1, order="F"))
             if lin:
-                xs.append(np.column_stack([(self.lib.column(t, bi) * self.w).reshape(-1, order="F")
-                                           for t in lin]))
+                xs.append(np.column_stack([self._flat(t, bi) for t in lin]))
         y = np.concatenate(ys)
         X = np.vstack(xs) if lin else np.zeros((len(y), 0))
         return y, X, lin
