@@ -83,16 +83,19 @@ def test_ctrl_c_during_gap_workflow(tmp_path):
 def test_atomic_dir_is_whole_or_untouched(tmp_path):
     out = tmp_path / "out"
     _previous_result(out)
-    (out / "other.json").write_text("{}")
+    (out / "other.log").write_text("another program's")
     with pytest.raises(RuntimeError), atomic_dir(out) as tmp:
-        (tmp / "new.json").write_text("{}")
+        (tmp / "previous.json").write_text("half")
         raise RuntimeError("half-way")
-    assert sorted(p.name for p in out.iterdir()) == ["other.json", "previous.json"]
-    with atomic_dir(out, keep_others=True) as tmp:  # the bench experiments share a folder
+    assert sorted(p.name for p in out.iterdir()) == ["other.log", "previous.json"]
+    assert (out / "previous.json").read_text() == '{"run": "previous"}\n'
+    with open(out / "other.log", "a") as still_writing, atomic_dir(out) as tmp:
         (tmp / "previous.json").write_text("new")
-    assert sorted(p.name for p in out.iterdir()) == ["other.json", "previous.json"]
+        (tmp / "sub").mkdir()
+        (tmp / "sub" / "plot.png").write_text("png")
+        still_writing.write(" log")  # a process writing into --out meanwhile loses nothing
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == ["other.log", "previous.json", "sub",
+                                                                        "sub/plot.png"]
     assert (out / "previous.json").read_text() == "new"
-    with atomic_dir(out) as tmp:
-        (tmp / "new.json").write_text("{}")
-    assert sorted(p.name for p in out.iterdir()) == ["new.json"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert (out / "other.log").read_text() == "another program's log"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left

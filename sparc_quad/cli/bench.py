@@ -94,7 +94,7 @@ def _out(args: argparse.Namespace) -> Iterator[Path]:
     if getattr(args, "write_to", None) is not None:
         yield args.write_to
         return
-    with atomic_dir(args.out, keep_others=True) as tmp:
+    with atomic_dir(args.out) as tmp:
         yield tmp
 
 
@@ -160,6 +160,6 @@ def run_pd(args: argparse.Namespace) -> int:
 
 
 def run_all(args: argparse.Namespace) -> int:
-    with atomic_dir(args.out, keep_others=True) as tmp:
+    with atomic_dir(args.out) as tmp:
         each = argparse.Namespace(**{**vars(args), "write_to": tmp})
         return run_static(each) or run_dynamic(each) or run_pd(each)

@@ -1,58 +1,46 @@
-"""Output folders written whole or not at all, so an interrupt (Ctrl-C) or a failure never leaves a mix of an
-old result and a partial new one.
+"""Outputs written whole or not at all, so an interrupt (Ctrl-C) or a failure never leaves a partial result
+beside (or over) the previous one.
 
 A command writes into a temporary sibling of its `--out` folder (same parent, so relative paths written
-inside stay valid and the final rename stays on one file system); when the command completes, the sibling
-takes the folder's place (one atomic exchange where the kernel offers renameat2, else two renames). On any
-exception, KeyboardInterrupt included, the sibling is removed and the old folder is left as it was.
+inside stay valid and every rename stays on one file system). When the command completes, each file it
+wrote is renamed into `--out` (os.replace: a reader sees the old file or the new one, never half of one)
+with SIGINT and SIGTERM held back, so an interrupt cannot split the set. On any exception,
+KeyboardInterrupt included, the sibling is removed and `--out` is left as it was. Files in `--out` that the
+command does not write (another program's logs, another experiment's results) are left alone: `--out` is
+not swapped as a whole, so a process still writing into it loses nothing.
 """
 
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import os
 import shutil
+import signal
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-_AT_FDCWD = -100
-_RENAME_EXCHANGE = 2
+_HELD = {signal.SIGINT, signal.SIGTERM}
 
 
-def _exchange(a: Path, b: Path) -> bool:
-    """Swap two existing paths atomically (Linux renameat2); False where that is not available."""
+def _commit(tmp: Path, out: Path) -> None:
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
     try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        fn = libc.renameat2
-    except (OSError, AttributeError):
-        return False
-    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
-    return fn(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0
-
-
-def _replace_dir(new: Path, out: Path) -> None:
-    if not out.exists():
-        new.rename(out)
-        return
-    if _exchange(new, out):  # `new` now holds the old result
-        shutil.rmtree(new, ignore_errors=True)
-        return
-    old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-    old.rmdir()
-    out.rename(old)
-    new.rename(out)
-    shutil.rmtree(old, ignore_errors=True)
+        out.mkdir(parents=True, exist_ok=True)
+        for src in sorted(tmp.rglob("*")):  # parents sort before their contents
+            dst = out / src.relative_to(tmp)
+            if src.is_dir():
+                dst.mkdir(exist_ok=True)
+            else:
+                os.replace(src, dst)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 
 
 @contextlib.contextmanager
-def atomic_dir(out: Path, *, keep_others: bool = False) -> Iterator[Path]:
-    """A temporary folder beside `out` to write the whole result into; it becomes `out` on success.
-
-    `keep_others`: files already in `out` that this run does not write are carried over (for commands that
-    share a folder, as the bench experiments do); otherwise the folder holds exactly the new result.
-    """
+def atomic_dir(out: Path) -> Iterator[Path]:
+    """A temporary folder beside `out` to write the whole result into; its files move into `out` on
+    success, and it is removed either way."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"--out {out} exists and is not a folder")
@@ -60,17 +48,11 @@ def atomic_dir(out: Path, *, keep_others: bool = False) -> Iterator[Path]:
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     try:
         yield tmp
-        if keep_others and out.is_dir():
-            for item in out.iterdir():
-                dest = tmp / item.name
-                if not dest.exists() and not item.name.startswith("."):
-                    (shutil.copytree if item.is_dir() else shutil.copy2)(item, dest)
-        _replace_dir(tmp, out)
-    except BaseException:
+        _commit(tmp, out)
+    finally:
         shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def moved(paths: list[Path], tmp: Path, out: Path) -> list[Path]:
-    """Paths written under `tmp`, as they are named after the folder became `out`."""
+    """Paths written under `tmp`, as they are named after the move into `out`."""
     return [out / Path(p).relative_to(tmp) for p in paths]
