@@ -16,7 +16,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _motors(channel, *args):
-    return main(["motors", *args, "--can-interface", "virtual", "--can-channel", channel, "--timeout", "0.2"])
+    # the timeout bounds the wait for answers that come (the emulator answers at once, but on a loaded
+    # machine its thread may wait for the CPU); only `status --ids 1,4` waits it out, for motor 4
+    return main(["motors", *args, "--can-interface", "virtual", "--can-channel", channel, "--timeout", "2"])
 
 
 def test_motors_cli(capsys, tmp_path):

@@ -183,7 +183,7 @@ SIGTERM_CHILD = textwrap.dedent("""
     from spine_module.buses.base import MotorCommand
     from spine_module.buses.cybergear import CanMotorBus, install_stop_handlers
     from spine_module.buses.cybergear import protocol as P
-    from tests.can_util import rig_config, stops_to, virtual_rig
+    from tests.can_util import rig_config, stops_to, virtual_rig, wait_for
 
     with virtual_rig() as (channel, emu, sniffer):
         mb = CanMotorBus(rig_config(), interface="virtual", channel=channel)
@@ -203,7 +203,8 @@ SIGTERM_CHILD = textwrap.dedent("""
             result["exit"] = e.code
             raise
         finally:
-            time.sleep(0.2)  # let the sniffer see the frames
+            # the stop frames are sent; wait (on the sniffer, not a guessed time) until it has seen them
+            wait_for(lambda: all(stops_to(sniffer, i) > before[i] for i in (1, 2, 3)), timeout_s=30)
             result["new_stops"] = {i: stops_to(sniffer, i) - before[i] for i in (1, 2, 3)}
             result["modes"] = {i: int(emu.motors[i].mode) for i in (1, 2, 3)}
             result["ticks"] = ticks
