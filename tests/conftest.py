@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from spine_module.messages import channels
 from tests.node_netns import PERIOD, K, lcm_tool, run_in_netns
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -16,16 +17,18 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="session")
 def lcm_run(tmp_path_factory):
     """A recorded node session: `spine-node` + `bench-robot` (static push-pull, k_x = K, one PERIOD) +
-    `lcm-logger`, as separate processes on UDP multicast in a network namespace. Returns (folder, logs)."""
+    `lcm-logger`, as separate processes on UDP multicast in a network namespace. Returns (folder, logs).
+    The logger listens with the node's URL (its 2 MB receive buffer: a descheduled logger drops less)."""
     out = tmp_path_factory.mktemp("lcm_run")
     py = shlex.quote(sys.executable)
+    url = shlex.quote(channels.DEFAULT_URL)
     exp = f"--experiment static --kx {K} --period {PERIOD} --cycles 1"
     script = f"""
 export PYTHONPATH={shlex.quote(str(ROOT))}
 {py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 2 --soft-start 0 \
     --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
 NODE=$!
-{shlex.quote(lcm_tool("lcm-logger"))} -q -f {out}/session.lcmlog > {out}/logger.out 2>&1 &
+{shlex.quote(lcm_tool("lcm-logger"))} -q --lcm-url={url} -f {out}/session.lcmlog > {out}/logger.out 2>&1 &
 LOGGER=$!
 {py} -m sparc_quad bench-robot --clock lockstep {exp} --out {out} > {out}/robot.out 2> {out}/robot.err
 wait $NODE

@@ -67,8 +67,12 @@ from tests.can_util import Sniffer, wait_for
 from spine_module.buses.cybergear import protocol as P
 from spine_module.messages import Mode, SpineCommand, channels, codec
 py, chan, log = sys.executable, "239.74.163.2", sys.argv[1]
+def die_with_parent():  # a timeout that kills this script must not leave the node or emulator behind
+    import ctypes
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
 emu = subprocess.Popen([py, "-m", "sparc_quad", "motors", "emulate", "--can-interface", "udp_multicast",
-                        "--can-channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True)
+                        "--can-channel", chan, "--ids", "1,2,3"], stdout=subprocess.PIPE, text=True,
+                       preexec_fn=die_with_parent)
 emu.stdout.readline()
 sbus = can.Bus(interface="udp_multicast", channel=chan)
 sn = Sniffer()
@@ -76,7 +80,7 @@ nt = can.Notifier(sbus, [sn], timeout=0.05)
 node = subprocess.Popen([py, "-m", "sparc_quad", "spine-node", "--motors", "can", "--can-interface",
                          "udp_multicast", "--can-channel", chan, "--lcm-url", channels.DEFAULT_URL,
                          "--no-heartbeat", "--can-log", log],
-                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=die_with_parent)
 lc = lcm.LCM(channels.DEFAULT_URL)
 damp = codec.encode_command(SpineCommand(mode=Mode.DAMPING))
 def control_frames_or_exit():
@@ -122,7 +126,7 @@ def test_spine_node_motors_can_cli_sigterm(tmp_path):
     script.write_text(NODE_CLI)
     proc = subprocess.run(["unshare", "-rn", sys.executable, str(script), str(log)], cwd=root,
                           env=dict(os.environ, PYTHONPATH=str(root)), capture_output=True, text=True,
-                          timeout=300)
+                          timeout=540)  # under pytest's 600 s; the script's own waits are on events
     assert proc.returncode == 0, proc.stderr[-3000:]
     res = json.loads(proc.stdout.strip().splitlines()[-1])
     assert res["rc"] == 0, res["err"]

@@ -30,6 +30,7 @@ pytestmark = [pytest.mark.netns,
 
 @pytest.fixture(scope="module")
 def lcm_run(tmp_path_factory):
+    # bound replaces its --out folder when done (atomic output): the node's files live beside it
     out = tmp_path_factory.mktemp("quad_lcm")
     py = shlex.quote(sys.executable)
     script = f"""
@@ -37,7 +38,7 @@ export PYTHONPATH={shlex.quote(str(ROOT))}
 {py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 \
     --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
 NODE=$!
-{py} -m sparc_quad bound --lcm --duration {DURATION} --out {out} > {out}/robot.out 2> {out}/robot.err
+{py} -m sparc_quad bound --lcm --duration {DURATION} --out {out}/bound > {out}/robot.out 2> {out}/robot.err
 wait $NODE
 """
     r = run_in_netns(script, ROOT, timeout_s=240)
@@ -59,7 +60,7 @@ def _series(path: Path) -> tuple[list[str], np.ndarray]:
 
 def test_both_bound_without_falling_and_move_forward(lcm_run, inprocess_run):
     out, logs = lcm_run
-    m = json.loads((out / "metrics.json").read_text())
+    m = json.loads((out / "bound" / "metrics.json").read_text())
     assert not m["fell"], logs
     assert m["distance_m"] > 0.2
     assert not inprocess_run.metrics["fell"] and inprocess_run.metrics["distance_m"] > 0.2
@@ -70,8 +71,8 @@ def test_every_tick_answered_and_node_used_the_estimators_q1(lcm_run):
     node = json.loads((out / "node.json").read_text())
     ticks = round(DURATION * 1000)
     assert node["ticks"] == ticks and node["rejected"] == 0, logs
-    states = np.load(out / "node_states.npz")
-    header, s = _series(out / "timeseries.csv")
+    states = np.load(out / "bound" / "node_states.npz")
+    header, s = _series(out / "bound" / "timeseries.csv")
     q1_est, q1_true = s[:, header.index("q1_est")], s[:, header.index("q1_true")]
     assert len(states["node_q"]) == ticks
     # what the node ran on, tick by tick, is exactly what the robot published from its estimator
@@ -83,7 +84,7 @@ def test_every_tick_answered_and_node_used_the_estimators_q1(lcm_run):
 
 def test_lockstep_over_lcm_equals_inprocess(lcm_run, inprocess_run):
     out, _ = lcm_run
-    header, s = _series(out / "timeseries.csv")
+    header, s = _series(out / "bound" / "timeseries.csv")
     ref = inprocess_run.series
     assert s.shape == ref.shape
     for name in ("x", "z", "q1_true", "q2", "q3", "q4", "tau2", "tau3", "tau4"):
