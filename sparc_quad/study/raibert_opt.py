@@ -20,6 +20,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from sparc_quad.study.fixed_trial import check_config
+from sparc_quad.study.fixed_trial import run_fixed_trial as run_trial
+
 # (config key, lower, upper): the search box; CMA works on [0, 1]^n mapped into it
 SEARCH = (
     ("frequency", 2.5, 5.0),  # Hz
@@ -61,8 +64,6 @@ def objective(metrics: dict, target_speed: float, duration: float) -> float:
 
 
 def _base(config: dict) -> dict:
-    from sparc_quad.study.trial import check_config
-
     base = {k: v for k, v in config.items() if k not in OPT_KEYS}
     base["gait"] = "raibert"
     check_config(base)
@@ -77,8 +78,6 @@ def optimise_cell(config: dict) -> dict:
 @lru_cache(maxsize=32)
 def _optimise(key: tuple) -> tuple:
     import cma
-
-    from sparc_quad.study.trial import run_trial
 
     config = dict(key)
     popsize = int(config.get("popsize", 6))
@@ -113,8 +112,6 @@ def _optimise(key: tuple) -> tuple:
 
 def run_optimised_trial(config: dict) -> dict:
     """Tune (or take `tuned`), then run the reported trial; its metrics + `opt_*` keys."""
-    from sparc_quad.study.trial import run_trial
-
     tuned = config.get("tuned")
     if tuned is None:
         tuned = optimise_cell(config)

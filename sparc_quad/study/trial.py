@@ -16,145 +16,14 @@ dicts with the same metric names where meaningful (sparc_quad.sim.gait_metrics).
 
 from __future__ import annotations
 
-import math
-from dataclasses import replace
+from sparc_quad.study.fixed_trial import GAITS, bound_config, check_config, run_fixed_trial, spine_gains
+from sparc_quad.study.raibert_opt import run_optimised_trial
 
-from sparc_quad.gaits.bound import BoundParams
-from sparc_quad.gaits.sine_bound import SineBoundParams
-from sparc_quad.sim.bound_run import BoundConfig, run_bound
-from sparc_quad.sim.quadruped_world import WorldConfig
-from sparc_quad.sim.seed_variation import perturbation
-from sparc_quad.sim.spine_drive import SPINE_VARIANTS, SpineGains, SpineSchedule
-from spine_module import params as P
-
-GAITS = ("sine", "raibert", "raibert-opt")
-_COMMON = {"gait", "spine", "duration", "seed", "slope", "kx", "kz", "kth", "ktheta", "dx", "dz", "dth",
-           "dtheta", "frequency", "step_height", "settle", "friction_comp", "host"}
-_RAIBERT = {"speed", "duty", "stride", "body_kp", "body_kd", "phase_offset", "raibert_gain",
-            "popsize", "iterations", "opt_duration", "opt_seed", "tuned"}
-_SINE = {"step_length", "adapt_frequency", "spine_rate_hz", "schedule", "hip_depth", "direction", "speed"}
-
-
-def _num(config: dict, key: str, default: float) -> float:
-    v = config.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        raise ValueError(f"config {key!r} must be a finite number, got {v!r}")
-    return float(v)
-
-
-def check_config(config: dict) -> None:
-    """Raise ValueError naming the first bad key or value."""
-    if not isinstance(config, dict):
-        raise ValueError(f"config must be a dict, got {type(config).__name__}")
-    gait = config.get("gait", "raibert")
-    if gait not in GAITS:
-        raise ValueError(f"config 'gait' must be one of {', '.join(GAITS)}, got {gait!r}")
-    spine = config.get("spine", "impedance")
-    if spine not in SPINE_VARIANTS:
-        raise ValueError(f"config 'spine' must be one of {', '.join(SPINE_VARIANTS)}, got {spine!r}")
-    allowed = _COMMON | (_SINE if gait == "sine" else _RAIBERT)
-    unknown = sorted(set(config) - allowed)
-    if unknown:
-        raise ValueError(f"unknown config key(s) for gait {gait!r}: {', '.join(unknown)}")
-    if _num(config, "duration", 10.0) <= 0:
-        raise ValueError("config 'duration' must be > 0 s")
-    seed = config.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"config 'seed' must be a non-negative integer, got {seed!r}")
-    for key in ("kx", "kz", "kth", "ktheta", "dx", "dz", "dth", "dtheta"):
-        if key in config and _num(config, key, 0.0) < 0:
-            raise ValueError(f"config {key!r} must be >= 0, got {config[key]!r}")
-    if abs(_num(config, "slope", 0.0)) > 0.5:
-        raise ValueError(f"config 'slope' must be within +-0.5 rad, got {config['slope']!r}")
-
-
-def spine_gains(config: dict, default_k, default_d) -> SpineGains:
-    k = (_num(config, "kx", default_k[0]), _num(config, "kz", default_k[1]),
-         _num(config, "kth", _num(config, "ktheta", default_k[2])))
-    d = (_num(config, "dx", default_d[0]), _num(config, "dz", default_d[1]),
-         _num(config, "dth", _num(config, "dtheta", default_d[2])))
-    return SpineGains(k=k, d=d)
-
-
-def bound_config(config: dict) -> BoundConfig:
-    """The BoundConfig of a trial config (seed perturbation applied)."""
-    check_config(config)
-    gait = config.get("gait", "raibert")
-    seed = int(config.get("seed", 0))
-    pert = perturbation(seed)
-    duration = _num(config, "duration", 10.0)
-    world = WorldConfig(host=config.get("host", "solo12"), slope_rad=_num(config, "slope", 0.0), seed=seed,
-                        friction=pert.friction, mass_scale=pert.mass_scale,
-                        init_pitch_rad=pert.init_pitch_rad, init_vx_m_s=pert.init_vx_m_s)
-    common = dict(duration_s=duration, world=world, spine_variant=config.get("spine", "impedance"),
-                  friction_compensation=bool(config.get("friction_comp", False)), stop_on_fall=False,
-                  actuator_latency_steps=pert.latency_steps, settle_s=_num(config, "settle", 1.0))
-    if gait == "sine":
-        d = SineBoundParams()
-        f = _num(config, "frequency", d.frequency_hz)
-        params = SineBoundParams(
-            frequency_hz=f, step_length_m=_num(config, "step_length", d.step_length_m),
-            step_height_m=_num(config, "step_height", d.step_height_m),
-            hip_depth_m=_num(config, "hip_depth", d.hip_depth_m),
-            direction=_num(config, "direction", d.direction),
-            adapt_frequency=bool(config.get("adapt_frequency", False)),
-            start_phase_rad=2 * math.pi * pert.start_phase_cycles)
-        params.validate()
-        world = replace(world, stand_height_m=params.hip_depth_m)
-        schedule = SpineSchedule() if config.get("schedule", True) else None
-        return BoundConfig(gait=params, spine=spine_gains(config, P.AUTHORS_SPINE_K, P.AUTHORS_SPINE_D_RUN),
-                           spine_schedule=schedule,
-                           spine_rate_hz=_num(config, "spine_rate_hz", P.AUTHORS_SPINE_RATE_HZ),
-                           **{**common, "world": world})
-    d = BoundParams()
-    f = _num(config, "frequency", d.frequency_hz)
-    if f <= 0:
-        raise ValueError("config 'frequency' must be > 0 Hz")
-    params = replace(d, frequency_hz=f, speed_m_s=_num(config, "speed", d.speed_m_s),
-                     step_height_m=_num(config, "step_height", d.step_height_m),
-                     duty=_num(config, "duty", 0.0) if "duty" in config else None,
-                     body_kp=_num(config, "body_kp", d.body_kp), body_kd=_num(config, "body_kd", d.body_kd),
-                     phase_offset=_num(config, "phase_offset", d.phase_offset),
-                     raibert_gain_s=_num(config, "raibert_gain", d.raibert_gain_s),
-                     start_s=d.start_s + pert.start_phase_cycles / f)
-    if "stride" in config:
-        params = params.with_stride(_num(config, "stride", 0.0))
-    return BoundConfig(gait=params, spine=spine_gains(config, P.K_DEFAULT, P.D_DEFAULT), **common)
-
-
-def _flat(metrics: dict) -> dict:
-    out: dict = {}
-    for k, v in metrics.items():
-        if k == "strides":
-            continue
-        if isinstance(v, dict):
-            for kk, vv in _flat(v).items():
-                out[f"{k}_{kk}"] = vv
-        elif isinstance(v, list | tuple):
-            for i, vv in enumerate(v):
-                out[f"{k}_{i}"] = float("nan") if vv is None else vv
-        elif v is None:
-            out[k] = float("nan")
-        else:
-            out[k] = v
-    return out
+__all__ = ["GAITS", "bound_config", "check_config", "run_trial", "spine_gains"]
 
 
 def run_trial(config: dict) -> dict:
     """Run one trial; flat metrics + `strides`. Raises ValueError on a bad config (naming the key)."""
     if config.get("gait") == "raibert-opt":
-        from sparc_quad.study.raibert_opt import run_optimised_trial
-
         return run_optimised_trial(config)
-    cfg = bound_config(config)
-    result = run_bound(cfg)
-    m = result.metrics
-    out = _flat({k: v for k, v in m.items() if k != "strides"})
-    for key in ("mean_speed_m_s", "distance_m", "cost_of_transport"):  # absent when the window was empty
-        out.setdefault(key, float("nan"))
-    out["strides"] = m.get("strides", [])
-    out.update(perturbation(int(config.get("seed", 0))).as_metrics())
-    out["gait"] = config.get("gait", "raibert")
-    out["spine"] = config.get("spine", "impedance")
-    out["fall_reason"] = m.get("fall_reason") or ""
-    return out
+    return run_fixed_trial(config)
