@@ -47,25 +47,26 @@ def load_trials(paths: Sequence[str | Path]) -> list[Trial]:
 
 
 CUTOFF_OVER_BANDWIDTH = 6.0
-BANDWIDTH_ENERGY = 0.999
+BANDWIDTH_ENERGY = 0.99
 CUTOFF_MIN_HZ = 5.0
 
 
 def choose_cutoff(trials: list[Trial]) -> tuple[float, float]:
-    """(low-pass cut-off, motion bandwidth), Hz, from the data: the bandwidth is the frequency under
-    which BANDWIDTH_ENERGY of the measured position's energy (mean removed) lies (Welch, max over joints
-    and trials; q, not dq: a noisy velocity of a light joint would inflate it);
+    """(low-pass cut-off, motion bandwidth), Hz, from the data: per joint, the frequency under which
+    BANDWIDTH_ENERGY of the measured velocity's energy lies (Welch); the bandwidth is the median over
+    joints (a noisy velocity of one light joint, e.g. a massless flange, does not set it), max over trials;
     the cut-off CUTOFF_OVER_BANDWIDTH times it (room for effects that act faster than the motion, e.g. a
     delay or friction at reversals), within [CUTOFF_MIN_HZ, rate/10]."""
     from scipy.signal import welch
 
     bw = 0.0
     for tr in trials:
-        f, P = welch(tr.q, fs=tr.rate_hz, nperseg=min(len(tr.t), round(4 * tr.rate_hz)), axis=0)
+        f, P = welch(tr.dq, fs=tr.rate_hz, nperseg=min(len(tr.t), round(4 * tr.rate_hz)), axis=0)
         c = np.cumsum(P, axis=0)
-        for v in range(P.shape[1]):
-            if c[-1, v] > 0:
-                bw = max(bw, float(f[min(np.searchsorted(c[:, v] / c[-1, v], BANDWIDTH_ENERGY), len(f) - 1)]))
+        per_joint = [float(f[min(np.searchsorted(c[:, v] / c[-1, v], BANDWIDTH_ENERGY), len(f) - 1)])
+                     for v in range(P.shape[1]) if c[-1, v] > 0]
+        if per_joint:
+            bw = max(bw, float(np.median(per_joint)))
     rate = trials[0].rate_hz
     return float(np.clip(CUTOFF_OVER_BANDWIDTH * bw, CUTOFF_MIN_HZ, rate / 10)), bw
 
@@ -270,7 +271,7 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
         "selection_log": sel_log,
         "settings": {"cutoff_hz": cutoff_hz, "motion_bandwidth_hz": bandwidth_hz,
                      "cutoff_rule": f"{CUTOFF_OVER_BANDWIDTH} x the frequency under which "
-                                    f"{100 * BANDWIDTH_ENERGY:g} % of q's energy lies (max over joints), "
+                                    f"{100 * BANDWIDTH_ENERGY:g} % of dq's energy lies (median over joints), "
                                     f"clipped to [{CUTOFF_MIN_HZ}, rate/10]" if bandwidth_hz else "given",
                      "decimation_step": step, "decimated_rate_hz": rate / step,
                      "decimation_rule": "one sample per 1 / (2 cutoff): white noise through the low-pass "
