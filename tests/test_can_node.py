@@ -67,6 +67,14 @@ from tests.can_util import Sniffer, wait_for
 from spine_module.buses.cybergear import protocol as P
 from spine_module.messages import Mode, SpineCommand, channels, codec
 py, chan, log = sys.executable, "239.74.163.2", sys.argv[1]
+# a loaded machine descheduled the real-time node for more than the motors' 50 ms CAN timeout and 50 ms
+# silent timeout (then the motors stop and the node latches a bus fault): 0.5 s, as the CAN rigs use
+import pathlib, re
+from spine_module.buses.cybergear import config as cfgmod
+toml = pathlib.Path(cfgmod.__file__).with_name("motors.toml").read_text()
+toml = re.sub(r"(?m)^(silent_timeout_s|can_timeout_s) = 0.05", r"\\1 = 0.5", toml)
+mcfg = pathlib.Path(log).with_name("motors.toml")
+mcfg.write_text(toml)
 def die_with_parent():  # a timeout that kills this script must not leave the node or emulator behind
     import ctypes
     ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
@@ -79,7 +87,7 @@ sn = Sniffer()
 nt = can.Notifier(sbus, [sn], timeout=0.05)
 node = subprocess.Popen([py, "-m", "sparc_quad", "spine-node", "--motors", "can", "--can-interface",
                          "udp_multicast", "--can-channel", chan, "--lcm-url", channels.DEFAULT_URL,
-                         "--no-heartbeat", "--can-log", log],
+                         "--no-heartbeat", "--can-log", log, "--motor-config", str(mcfg)],
                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=die_with_parent)
 lc = lcm.LCM(channels.DEFAULT_URL)
 damp = codec.encode_command(SpineCommand(mode=Mode.DAMPING))
