@@ -75,6 +75,7 @@ toml = pathlib.Path(cfgmod.__file__).with_name("motors.toml").read_text()
 toml = re.sub(r"(?m)^(silent_timeout_s|can_timeout_s) = 0.05", r"\\1 = 0.5", toml)
 mcfg = pathlib.Path(log).with_name("motors.toml")
 mcfg.write_text(toml)
+node_err = pathlib.Path(log).with_name("node_err.txt")
 def die_with_parent():  # a timeout that kills this script must not leave the node or emulator behind
     import ctypes
     ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
@@ -88,7 +89,8 @@ nt = can.Notifier(sbus, [sn], timeout=0.05)
 node = subprocess.Popen([py, "-m", "sparc_quad", "spine-node", "--motors", "can", "--can-interface",
                          "udp_multicast", "--can-channel", chan, "--lcm-url", channels.DEFAULT_URL,
                          "--no-heartbeat", "--can-log", log, "--motor-config", str(mcfg)],
-                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=die_with_parent)
+                        stdout=subprocess.PIPE, stderr=open(node_err, "w"), text=True,
+                        preexec_fn=die_with_parent)  # stderr to a file: a full stderr pipe blocks the node
 lc = lcm.LCM(channels.DEFAULT_URL)
 damp = codec.encode_command(SpineCommand(mode=Mode.DAMPING))
 def control_frames_or_exit():
@@ -102,7 +104,7 @@ wait_for(lambda: all(any(P.split_id(m.arbitration_id)[0] == 4 and m.arbitration_
                          for m in sn.frames[n0:]) for i in (1, 2, 3)), timeout_s=30)
 res = {"rc": node.returncode, "controlled": controlled,
        "summary": out.strip().splitlines()[-1] if out.strip() else "",
-       "err": err[-1500:],
+       "err": node_err.read_text()[-1500:],
        "types": sorted({P.split_id(m.arbitration_id)[0] for m in sn.frames[:n0]}),
        "stops_after": {i: sum(1 for m in sn.frames[n0:] if P.split_id(m.arbitration_id)[0] == 4
                               and m.arbitration_id & 0xFF == i) for i in (1, 2, 3)}}
