@@ -21,7 +21,7 @@ COMMANDS: tuple[str, ...] = ("robots", "bench", "demo", "node", "motors", "gap",
 # top-level modules that only an extra installs -> that extra (when the command names none)
 EXTRA_OF_MODULE: dict[str, str] = {
     "pybullet": "sim", "pybullet_data": "sim", "example_robot_data": "sim", "tqdm": "sim", "msgpack": "sim",
-    "matplotlib": "sim", "scipy": "sim", "statsmodels": "gap", "cma": "study", "dask": "study",
+    "matplotlib": "sim", "scipy": "sim", "statsmodels": "study", "cma": "study", "dask": "study",
     "distributed": "study",
 }
 
