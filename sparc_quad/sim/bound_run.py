@@ -122,16 +122,24 @@ def _gait_frequency(gait) -> float:
     return gait.frequency_hz if isinstance(gait, SineBoundController) else gait.p.frequency_hz
 
 
+PROFILE_PHASES = ("read", "spine", "gait", "log", "physics", "other")
+
+
 def run_bound(
     cfg: BoundConfig,
     spine=None,
     on_frame: Callable | None = None,
     frame_every_s: float = 0.0,
     video: bool = False,
+    profile: dict[str, float] | None = None,
 ) -> BoundResult:
     """Simulate `cfg.duration_s` of bounding. `spine(est, q_spine, dq_spine, t) -> tau (3,)` defaults to
     the in-process controller. `on_frame(world)` is called every `frame_every_s`; `video` collects frames
-    from pybullet's software renderer at VIDEO_FPS."""
+    from pybullet's software renderer at VIDEO_FPS. `profile`, when given, accumulates wall seconds
+    (time.perf_counter) per phase of each step: read (world.estimate), spine, gait, log (torques sent,
+    leg states read, log row), physics (world.step: stepSimulation + state refresh), other (fall
+    check); when None the loop takes no
+    timestamps."""
     frames: list = []
     if video:
         on_frame, frame_every_s = (lambda w: frames.append(w.render())), 1.0 / VIDEO_FPS
@@ -150,14 +158,31 @@ def run_bound(
     latency = max(0, int(cfg.actuator_latency_steps))
     pipe: collections.deque = collections.deque()
     zero_legs = {k: (0.0, 0.0, 0.0) for k in legs_order}
+    prof = profile is not None
+    if prof:
+        for key in PROFILE_PHASES:
+            profile.setdefault(key, 0.0)
+    clock = time.perf_counter
+    c0 = c1 = 0.0
     t0 = time.perf_counter()
     i = 0
     try:
         for i in range(n):
+            if prof:
+                c0 = clock()
             t = world.t
             est = world.estimate()
+            if prof:
+                c1 = clock()
+                profile["read"] += c1 - c0
             tau_s = spine(est, world.q_spine, world.dq_spine, t)
+            if prof:
+                c0 = clock()
+                profile["spine"] += c0 - c1
             leg_tau = gait.step(t)
+            if prof:
+                c1 = clock()
+                profile["gait"] += c1 - c0
             if latency:  # what the actuators apply now was commanded `latency` steps ago
                 pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
                 tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
@@ -197,7 +222,13 @@ def run_bound(
             row[_PH + 2] = getattr(spine, "energy_j", 0.0)
             if frame_every and i % frame_every == 0 and on_frame is not None:
                 on_frame(world)
+            if prof:
+                c0 = clock()
+                profile["log"] += c0 - c1
             world.step()
+            if prof:
+                c1 = clock()
+                profile["physics"] += c1 - c0
             if cfg.realtime:
                 lag = t0 + world.t - time.perf_counter()
                 if lag > 0:
@@ -209,6 +240,8 @@ def run_bound(
                     if cfg.stop_on_fall:
                         i += 1
                         break
+            if prof:
+                profile["other"] += clock() - c1
         else:
             i = n
     finally:
