@@ -1,6 +1,6 @@
 """Study throughput: trials per minute with 2 local workers against 1 (goal >= 1.8x on 2 idle cores).
 
-    python bench/study_scaling.py --json out/bench/study_scaling.json [--trials 8] [--duration 2]
+    python bench/study_scaling.py --json out/bench/study_scaling.json [--trials 12] [--duration 6]
 
 Runs the same small study (raibert bound, impedance spine over a k_x list, `--duration` simulated s per
 trial) twice from empty folders, with `--workers 1` and `--workers 2`, through `run_study` (process pool
@@ -63,8 +63,8 @@ def rate(workers: int, trials: int, duration: float) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", type=Path, default=None, help="write the results here")
-    ap.add_argument("--trials", type=int, default=8, help="trials per run (default %(default)s)")
-    ap.add_argument("--duration", type=float, default=2.0, help="simulated s per trial (default %(default)s)")
+    ap.add_argument("--trials", type=int, default=12, help="trials per run (default %(default)s)")
+    ap.add_argument("--duration", type=float, default=6.0, help="simulated s per trial (default %(default)s)")
     args = ap.parse_args(argv)
     if args.trials < 2 or args.duration <= 0:
         print("error: --trials must be >= 2 and --duration > 0", file=sys.stderr)
