@@ -24,7 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.gap.import_util import LogImportError, decimate, find_source, read_table, write_trial_csv
+from sparc_quad.gap.import_util import (
+    LogImportError,
+    decimate,
+    find_source,
+    read_table,
+    time_window,
+    write_trial_csv,
+)
 
 SOURCE_REPO = "https://github.com/marcocognetti/FrankaEmikaPandaDynModel"
 SOURCE_COMMIT = "24d85ce4e648e2e894c832bfeee9b16711eb1a1a"
@@ -114,16 +121,6 @@ def convert(source: str | Path, out: str | Path, windows_s: Sequence[tuple[float
     return paths
 
 
-def _window(text: str) -> tuple[float, float]:
-    a, sep, b = text.partition(":")
-    try:
-        if not sep:
-            raise ValueError
-        return float(a), float(b)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"window must be START:END in seconds, got {text!r}") from None
-
-
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m sparc_quad.gap.import_panda",
                                 description=__doc__.split("\n")[0])
@@ -132,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, required=True, help="output folder for the trials and panda.urdf")
     p.add_argument("--rate", type=float, default=1000.0, help="uniform resampling rate, Hz (default 1000)")
     p.add_argument("--decimate", type=int, default=1, help="decimation factor after resampling (default 1)")
-    p.add_argument("--window", type=_window, action="append", default=None, metavar="START:END",
+    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
                    help="time window in s (repeatable; default the whole 21 s log)")
     args = p.parse_args(argv)
     try:

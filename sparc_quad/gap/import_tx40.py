@@ -29,7 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.gap.import_util import LogImportError, decimate, find_source, read_table, write_trial_csv
+from sparc_quad.gap.import_util import (
+    LogImportError,
+    decimate,
+    find_source,
+    read_table,
+    time_window,
+    write_trial_csv,
+)
 
 SOURCE_REPO = "https://github.com/thanhndv212/figaroh-plus"
 SOURCE_COMMIT = "c3b5172"  # figaroh-plus main when imported; the data files date from dd270af (2023-01-23)
@@ -128,16 +135,6 @@ def convert(source: str | Path, out: str | Path,
     return paths
 
 
-def _window(text: str) -> tuple[float, float]:
-    a, sep, b = text.partition(":")
-    try:
-        if not sep:
-            raise ValueError
-        return float(a), float(b)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"window must be START:END in seconds, got {text!r}") from None
-
-
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m sparc_quad.gap.import_tx40",
                                 description=__doc__.split("\n")[0])
@@ -146,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, required=True, help="output folder for the trials")
     p.add_argument("--urdf", type=Path, default=None, help=f"the TX40 URDF (default: SOURCE/../{URDF_NAME})")
     p.add_argument("--decimate", type=int, default=1, help="decimation factor (default 1: as recorded)")
-    p.add_argument("--window", type=_window, action="append", default=None, metavar="START:END",
+    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
                    help="time window in s (repeatable; default the whole log)")
     args = p.parse_args(argv)
     try:

@@ -3,6 +3,7 @@ be compressed, read a numeric table with a clear error, write a trial CSV + side
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 from pathlib import Path
@@ -58,3 +59,14 @@ def decimate(x: np.ndarray, factor: int) -> np.ndarray:
     if factor == 1:
         return x
     return signal.resample_poly(x, 1, factor, axis=0, padtype="line")
+
+
+def time_window(text: str) -> tuple[float, float]:
+    """argparse type for `--window START:END` (seconds)."""
+    a, sep, b = text.partition(":")
+    try:
+        if not sep:
+            raise ValueError
+        return float(a), float(b)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"window must be START:END in seconds, got {text!r}") from None
