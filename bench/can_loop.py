@@ -41,6 +41,7 @@ from sparc_quad.sim.cybergear_emulator import CyberGearEmulator
 from spine_module.buses.base import MotorBusError, MotorCommand
 from spine_module.buses.cybergear import CanMotorBus, bus_load, load_config, max_loop_rate_hz
 from spine_module.node.clocks import PeriodStats, RealTimeClock
+from spine_module.node.realtime import RtOptions, RtSetupError, apply, freeze_startup_objects
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -81,6 +82,8 @@ def run_max(seconds: float) -> dict:
 def _paced_loop(mb, seconds: float, rate_hz: float) -> dict:
     """Receive the newest feedback, send one command set, wait for the next absolute deadline."""
     cmd = MotorCommand(tau_ff=np.full(3, 0.1), kd=np.full(3, 0.05))
+    freeze_startup_objects()  # as spine-node does before its loop: no long gen-2 collection mid-run
+    sys.setswitchinterval(SWITCH_S)
     clock = RealTimeClock(rate_hz)
     tx0, rx0 = mb.tx_frames, mb.rx_frames
     n, stale = 0, 0
@@ -130,26 +133,33 @@ def run_paced(seconds: float, rate_hz: float) -> dict:
         ebus.shutdown()
 
 
+SWITCH_S = float(os.environ.get("SWITCH_S", "0.005"))
 GROUP = "239.74.163.9"
 
 
-def run_paced_process(seconds: float, rate_hz: float) -> dict:
-    """Emulator in its own process on `udp_multicast`; call inside a private network namespace."""
+def run_paced_process(seconds: float, rate_hz: float, rt_priority: int | None = None) -> dict:
+    """Emulator in its own process on `udp_multicast`; call inside a private network namespace. With
+    `rt_priority` both the loop and the emulator run SCHED_FIFO (the emulator stands in for motors, which
+    do not share a CPU with the host's other jobs)."""
     for cmd in (["ip", "link", "set", "lo", "up", "multicast", "on"], ["ip", "route", "add", "224.0.0.0/4",
                                                                        "dev", "lo"]):
         subprocess.run(cmd, check=True, capture_output=True)
-    emu = subprocess.Popen([sys.executable, "-m", "sparc_quad", "motors", "emulate", "--can-interface",
+    chrt = [] if rt_priority is None else ["chrt", "-f", str(rt_priority)]
+    emu = subprocess.Popen([*chrt, sys.executable, "-m", "sparc_quad", "motors", "emulate", "--can-interface",
                             "udp_multicast", "--can-channel", GROUP, "--ids", "1,2,3"],
                            stdout=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         if "emulating" not in (emu.stdout.readline() if emu.stdout else ""):
             raise RuntimeError("the emulator process did not start")
+        # before the bus: its receive thread inherits the priority (a normal-priority thread holding the
+        # GIL would stall the SCHED_FIFO loop whenever the host's other jobs preempt it)
+        rt = apply(RtOptions(rt_priority=rt_priority)) if rt_priority is not None else []
         cfg = load_config().with_(silent_timeout_s=1.0, can_timeout_s=1.0)  # tolerate a loaded host
         mb = CanMotorBus(cfg, interface="udp_multicast", channel=GROUP)
         mb.start()
         mb.receive(1.0)
         try:
-            return {"emulator": "process (udp_multicast, network namespace)",
+            return {"emulator": "process (udp_multicast, network namespace)", "realtime": rt,
                     **_paced_loop(mb, seconds, rate_hz)}
         finally:
             mb.stop()
@@ -180,6 +190,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rate-hz", type=float, default=1000.0)
     ap.add_argument("--emulator", choices=["process", "thread"], default="process",
                     help="paced loop: emulator in its own process (default) or on a thread of this one")
+    ap.add_argument("--rt-priority", type=int, default=None,
+                    help="run the paced loop and the emulator process SCHED_FIFO at this priority (1..99; "
+                         "needs root or CAP_SYS_NICE), as on a torso computer; default: normal scheduling")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--inside-netns", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -188,13 +201,19 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--seconds and --rate-hz must be positive numbers")
     logging.basicConfig(level=logging.ERROR)
     if args.inside_netns:
-        print(json.dumps(run_paced_process(args.seconds, args.rate_hz)))
+        try:
+            print(json.dumps(run_paced_process(args.seconds, args.rate_hz, args.rt_priority)))
+        except RtSetupError as exc:
+            print(f"can_loop: {exc}", file=sys.stderr)
+            return 2
         return 0
     load = bus_load(3, args.rate_hz, 1_000_000, warn=False)
     if args.emulator == "process":
-        paced = _in_netns(["--seconds", str(args.seconds), "--rate-hz", str(args.rate_hz)])
+        rt = [] if args.rt_priority is None else ["--rt-priority", str(args.rt_priority)]
+        paced = _in_netns(["--seconds", str(args.seconds), "--rate-hz", str(args.rate_hz), *rt])
     else:
-        paced = run_paced(args.seconds, args.rate_hz)
+        rt = apply(RtOptions(rt_priority=args.rt_priority)) if args.rt_priority is not None else []
+        paced = {**run_paced(args.seconds, args.rate_hz), "realtime": rt}
     result = {"motors": 3, "max": {"emulator": "lockstep, in-process virtual bus", **run_max(args.seconds)},
               "paced": paced, "goal_paced_rate_ratio": [0.99, 1.01], "bus_load_model": load.as_dict(),
               "max_rate_hz_for_3_motors_at_80pct": max_loop_rate_hz(3),
