@@ -31,9 +31,12 @@ lint: install
 	$(BIN)/ruff check .
 
 # every performance script prints ratios measured in the same run and writes out/bench/<name>.json
+# CAN_LOOP_ARGS="--rt-priority 50" runs the CAN loop and its emulator SCHED_FIFO (root or CAP_SYS_NICE)
 BENCHES := control_step node_tick lcm_loop can_loop gap cosim study_scaling
+CAN_LOOP_ARGS ?=
 bench: install
-	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json || exit 1; done
+	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json \
+	  $$( [ $$b = can_loop ] && echo $(CAN_LOOP_ARGS) ) || exit 1; done
 	$(BIN)/python bench/summary.py out/bench
 
 # re-pin the test environment to what the working venv has (after changing dependencies in pyproject)
