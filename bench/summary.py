@@ -27,6 +27,8 @@ ROWS: list[Row] = [
      ">= 0.5", lambda v: v >= 0.5),
     ("cosim", "bound: physics time / loop time", lambda r: r["in_process_vs_physics_only"], ">= 0.5",
      lambda v: v >= 0.5),
+    ("run_cost", "bound --no-plots fixed cost, CPU s", lambda r: r["fixed_cost_cpu_s"], "< 1",
+     lambda v: v < 1.0),
 ]
 
 

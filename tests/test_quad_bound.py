@@ -111,3 +111,19 @@ def test_node_in_process_bounds_and_runs_on_the_estimate():
     assert not r.metrics["fell"] and r.metrics["spine_driver"] == "node"
     np.testing.assert_array_equal(r.node_states["node_q"][:, 0], r.column("q1_est"))
     assert not r.node_states["node_faults"].any()
+
+
+def test_cli_bound_no_plots_never_imports_matplotlib(tmp_path):
+    import subprocess
+    import sys
+
+    code = ("import sys; from sparc_quad.cli import main; rc = main(sys.argv[1:]); "
+            "print('MPL', 'matplotlib' in sys.modules); sys.exit(rc)")
+    argv = ["bound", "--duration", "0.05", "--no-plots", "--out", str(tmp_path / "o")]
+    r = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "MPL False" in r.stdout
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["metrics.json", "timeseries.csv"]
+    r = subprocess.run([sys.executable, "-m", "sparc_quad", *argv, "--video"], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 2 and "--no-plots" in r.stderr and "Traceback" not in r.stderr

@@ -33,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "bound",
         help="bound the SPARC-spined quadruped in pybullet and measure it",
         description="Simulate the quadruped with the SPARC spine bounding (pybullet DIRECT, 1 kHz). "
-        "Writes metrics.json, timeseries.csv and PNG plots to --out.",
+        "Writes metrics.json, timeseries.csv and (unless --no-plots) PNG plots to --out.",
     )
     g, imu = BoundParams(), ImuConfig()
     add_gain_options(p)
@@ -84,6 +84,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--out", type=Path, default=Path("out/bound"), help="output folder (default %(default)s)")
     p.add_argument("--video", action="store_true", help="also render bound.gif (pybullet ER_TINY_RENDERER)")
+    p.add_argument("--no-plots", action="store_true",
+                   help="write metrics.json and timeseries.csv only (no PNGs; matplotlib is not imported)")
     p.set_defaults(func=run, extra="sim")
 
 
@@ -118,6 +120,10 @@ def config_from_args(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bound_run import run_bound, write_outputs
 
+    if args.video and args.no_plots:
+        print("--video renders bound.gif with matplotlib: it cannot be combined with --no-plots",
+              file=sys.stderr)
+        return 2
     cfg = config_from_args(args)
     spine = None
     if (args.rigid_spine or args.spine_variant != "impedance") and (args.lcm or args.spine == "node"):
@@ -140,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
         spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation)
     with atomic_dir(args.out) as tmp:  # --out keeps its previous result until this one is complete
         result = run_bound(cfg, spine=spine, video=args.video)
-        paths = moved(write_outputs(result, tmp), tmp, args.out)
+        paths = moved(write_outputs(result, tmp, plots=not args.no_plots), tmp, args.out)
     m = result.metrics
     summary = {k: m.get(k) for k in ("fell", "fall_time_s", "fall_reason", "mean_speed_m_s", "cot_pos",
                                       "cost_of_transport", "stride_frequency_hz", "stride_length_m",

@@ -365,13 +365,10 @@ def config_dict(cfg: BoundConfig) -> dict:
     return asdict(cfg)
 
 
-def write_outputs(result: BoundResult, out: Path) -> list[Path]:
-    """metrics.json, timeseries.csv, plots (gait diagram, pitches, spine states, torques), bound.gif."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def write_outputs(result: BoundResult, out: Path, plots: bool = True) -> list[Path]:
+    """metrics.json, timeseries.csv, node_states.npz (node paths) and, with `plots`, the PNG plots (gait
+    diagram, pitches, spine states, torques) and bound.gif. Without plots matplotlib is never imported
+    (about 1 s of CPU per process: a sweep of short runs should not pay it)."""
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     metrics = dict(result.metrics)
@@ -382,6 +379,23 @@ def write_outputs(result: BoundResult, out: Path) -> list[Path]:
     p = out / "timeseries.csv"
     np.savetxt(p, result.series, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.9g")
     paths.append(p)
+    if result.node_states:
+        p = out / "node_states.npz"
+        np.savez(p, **result.node_states)
+        paths.append(p)
+    if plots:
+        paths += write_plots(result, out)
+    return paths
+
+
+def write_plots(result: BoundResult, out: Path) -> list[Path]:
+    """The PNG plots and (frames collected) bound.gif into `out`."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    paths = []
     s = result.series
     t = result.column("t")
     fig, ax = plt.subplots(figsize=(10, 2.6))
@@ -422,10 +436,6 @@ def write_outputs(result: BoundResult, out: Path) -> list[Path]:
     ax.legend(loc="upper right")
     fig.tight_layout()
     paths.append(_save(fig, out / "torques.png"))
-    if result.node_states:
-        p = out / "node_states.npz"
-        np.savez(p, **result.node_states)
-        paths.append(p)
     if result.frames:
         from matplotlib import animation
 
