@@ -23,12 +23,12 @@ Behaviours (deadlines from `params.SAFETY`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from spine_module import params
-from spine_module.messages.types import LATCHING, Fault, Mode
+from spine_module.messages.types import LATCHING, MODES, Fault, Mode
 
 TORQUE_MODES = (Mode.IMPEDANCE, Mode.PD, Mode.JOINT_TORQUE)
 RAMPED_MODES = (Mode.IMPEDANCE, Mode.PD)
@@ -96,79 +96,109 @@ def age(now: float, t: float | None) -> float:
     return math.inf if t is None else now - t - EPS_S
 
 
+_TORSO_STALE, _FEEDBACK_STALE, _COMMAND_STALE = (int(Fault.TORSO_STALE), int(Fault.FEEDBACK_STALE),
+                                                 int(Fault.COMMAND_STALE))
+_HEARTBEAT_LOST, _ESTOP, _WAITING = int(Fault.HEARTBEAT_LOST), int(Fault.ESTOP), int(Fault.WAITING)
+_LATCHING = int(LATCHING)
+_DISABLED, _DAMPING, _IMPEDANCE, _ESTOP_MODE = (int(Mode.DISABLED), int(Mode.DAMPING), int(Mode.IMPEDANCE),
+                                               int(Mode.ESTOP))
+_INF = math.inf
+_TORQUE = frozenset(int(m) for m in TORQUE_MODES)
+_TORQUE_OR_DAMPING = _TORQUE | {_DAMPING}
+_RAMPED = frozenset(int(m) for m in RAMPED_MODES)
+
+
 def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, reset: bool,
               cfg: SafetyConfig) -> tuple[SafetyState, Verdict]:
     """One tick of the watchdogs and latches. `reset` is True on the tick a command asking for a reset
     arrives; `requested` is the mode of the command in force (DISABLED before any)."""
-    latched = state.latched
-    heartbeat_seen = state.heartbeat_seen or rx.heartbeat is not None
-    heartbeat_fresh = age(now, rx.heartbeat) <= cfg.heartbeat_deadline_s
-    reset_count = state.reset_count
+    (latched, heartbeat_seen, mode, ramp_t0, stale_since, reset_count, faults, scale, default_gains,
+     enable) = supervise_values(int(state.latched), state.heartbeat_seen, int(state.mode), state.ramp_t0,
+                                state.stale_since, state.reset_count, now, rx.torso, rx.feedback, rx.command,
+                                rx.heartbeat, int(requested), reset, cfg)
+    new = SafetyState(latched=Fault(latched), heartbeat_seen=heartbeat_seen, mode=MODES[mode],
+                      ramp_t0=ramp_t0, stale_since=stale_since, reset_count=reset_count)
+    return new, Verdict(mode=MODES[mode], faults=Fault(faults), gain_scale=scale, default_gains=default_gains,
+                        enable=enable)
+
+
+def supervise_values(latched: int, heartbeat_seen: bool, last_mode: int, ramp_t0: float | None,
+                     stale_since: float | None, reset_count: int, now: float, rx_torso: float | None,
+                     rx_feedback: float | None, rx_command: float | None, rx_heartbeat: float | None,
+                     requested: int, reset: bool, cfg: SafetyConfig) -> tuple:
+    """`supervise` on plain ints and floats (fault bits and modes as ints, receipts as times or None), for
+    the node's 1 kHz tick: no state objects, no IntFlag arithmetic. Returns (latched, heartbeat_seen,
+    mode, ramp_t0, stale_since, reset_count, faults, gain_scale, default_gains, enable); `supervise` is
+    this function with `SafetyState`/`Verdict` around it."""
+    heartbeat_seen = heartbeat_seen or rx_heartbeat is not None
+    # an input never received is infinitely old (as `age`), also against an infinite deadline
+    hb_age = _INF if rx_heartbeat is None else now - rx_heartbeat - EPS_S
+    heartbeat_fresh = hb_age <= cfg.heartbeat_deadline_s
+    heartbeat_required = cfg.heartbeat_required
 
     if reset:
         reset_count += 1
-        if heartbeat_fresh or not cfg.heartbeat_required:
-            latched &= ~Fault.HEARTBEAT_LOST
-        if requested != Mode.ESTOP:
-            latched &= ~Fault.ESTOP
-    if requested == Mode.ESTOP:
-        latched |= Fault.ESTOP
-    if cfg.heartbeat_required and heartbeat_seen and not heartbeat_fresh:
-        latched |= Fault.HEARTBEAT_LOST
+        if heartbeat_fresh or not heartbeat_required:
+            latched &= ~_HEARTBEAT_LOST
+        if requested != _ESTOP_MODE:
+            latched &= ~_ESTOP
+    if requested == _ESTOP_MODE:
+        latched |= _ESTOP
+    if heartbeat_required and heartbeat_seen and not heartbeat_fresh:
+        latched |= _HEARTBEAT_LOST
 
-    active = Fault.NONE
-    if cfg.heartbeat_required and not heartbeat_seen:
-        active |= Fault.WAITING
-    if rx.feedback is None:
-        active |= Fault.WAITING
-    elif age(now, rx.feedback) > cfg.feedback_deadline_s:
-        active |= Fault.FEEDBACK_STALE
-    if age(now, rx.torso) > cfg.torso_deadline_s:
-        active |= Fault.TORSO_STALE
-    command_stale = rx.command is not None and age(now, rx.command) > cfg.command_deadline_s
+    active = 0
+    if heartbeat_required and not heartbeat_seen:
+        active |= _WAITING
+    if rx_feedback is None:
+        active |= _WAITING
+    elif now - rx_feedback - EPS_S > cfg.feedback_deadline_s:
+        active |= _FEEDBACK_STALE
+    if (_INF if rx_torso is None else now - rx_torso - EPS_S) > cfg.torso_deadline_s:
+        active |= _TORSO_STALE
+    command_stale = rx_command is not None and now - rx_command - EPS_S > cfg.command_deadline_s
     if command_stale:
-        active |= Fault.COMMAND_STALE
+        active |= _COMMAND_STALE
 
     default_gains = False
     enable = True
-    if latched & Fault.ESTOP:
-        mode, enable = Mode.ESTOP, False
-    elif latched & LATCHING or active & Fault.WAITING:
-        mode, enable = Mode.DISABLED, False
-    elif active & Fault.FEEDBACK_STALE:
-        mode = Mode.DISABLED  # zero torque, motors left enabled so fresh feedback resumes control at once
-    elif active & Fault.TORSO_STALE and requested in (*TORQUE_MODES, Mode.DAMPING):
-        mode = Mode.DAMPING  # a DISABLED request stays disabled: the fallback never energises motors
-    elif command_stale and requested in TORQUE_MODES:
-        mode, default_gains = Mode.IMPEDANCE, True
+    if latched & _ESTOP:
+        mode, enable = _ESTOP_MODE, False
+    elif latched & _LATCHING or active & _WAITING:
+        mode, enable = _DISABLED, False
+    elif active & _FEEDBACK_STALE:
+        mode = _DISABLED  # zero torque, motors left enabled so fresh feedback resumes control at once
+    elif active & _TORSO_STALE and requested in _TORQUE_OR_DAMPING:
+        mode = _DAMPING  # a DISABLED request stays disabled: the fallback never energises motors
+    elif command_stale and requested in _TORQUE:
+        mode, default_gains = _IMPEDANCE, True
     else:
-        mode = Mode.DISABLED if requested == Mode.ESTOP else requested
-        enable = mode != Mode.DISABLED
+        mode = _DISABLED if requested == _ESTOP_MODE else requested
+        enable = mode != _DISABLED
 
-    ramp_t0, stale_since = state.ramp_t0, None
     # a feedback-stale spell inside a ramped mode pauses it: zero torque, motors still enabled, the ramp
     # kept, so a short gap resumes where it was (full gain once the ramp is done). Only a real restart (a
     # stop, another mode, or a gap longer than stale_resume_s) soft-starts again.
-    paused = (mode == Mode.DISABLED and enable and active & Fault.FEEDBACK_STALE
-              and (state.mode in RAMPED_MODES or state.stale_since is not None) and ramp_t0 is not None)
+    was_stale = stale_since is not None
+    paused = (mode == _DISABLED and enable and active & _FEEDBACK_STALE
+              and (last_mode in _RAMPED or was_stale) and ramp_t0 is not None)
     if paused:
-        stale_since = now if state.stale_since is None else state.stale_since
+        stale_since = now if stale_since is None else stale_since
         if now - stale_since > cfg.stale_resume_s:
             ramp_t0, stale_since = None, None
         scale = 0.0
-    elif mode in RAMPED_MODES:
-        resumed = state.stale_since is not None and ramp_t0 is not None
-        if not resumed and (state.mode not in RAMPED_MODES or ramp_t0 is None):
-            ramp_t0 = now
-        scale = 1.0 if cfg.soft_start_s <= 0 else min(1.0, max(0.0, (now - ramp_t0) / cfg.soft_start_s))
     else:
-        ramp_t0 = None
-        scale = 1.0 if mode in TORQUE_MODES else 0.0
-
-    new = replace(state, latched=latched, heartbeat_seen=heartbeat_seen, mode=mode, ramp_t0=ramp_t0,
-                  stale_since=stale_since, reset_count=reset_count)
-    return new, Verdict(mode=mode, faults=latched | active, gain_scale=scale, default_gains=default_gains,
-                        enable=enable)
+        stale_since = None
+        if mode in _RAMPED:
+            resumed = was_stale and ramp_t0 is not None
+            if not resumed and (last_mode not in _RAMPED or ramp_t0 is None):
+                ramp_t0 = now
+            scale = 1.0 if cfg.soft_start_s <= 0 else min(1.0, max(0.0, (now - ramp_t0) / cfg.soft_start_s))
+        else:
+            ramp_t0 = None
+            scale = 1.0 if mode in _TORQUE else 0.0
+    return (latched, heartbeat_seen, mode, ramp_t0, stale_since, reset_count, latched | active, scale,
+            default_gains, enable)
 
 
 def clamp_torque(tau: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:

@@ -26,7 +26,7 @@ from spine_module.messages.lcmt.sparc import (
     torso_state_t,
 )
 from spine_module.messages.motor import MotorCommand, MotorFeedback
-from spine_module.messages.types import Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
+from spine_module.messages.types import MODES, Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
 
 LCM_TYPES = (torso_state_t, spine_command_t, spine_state_t, motor_command_t, motor_feedback_t, heartbeat_t)
 
@@ -143,8 +143,6 @@ class _Checker:
         self.hi = np.array([r.hi for r in rows])
         self.nan_ok = np.array([r.nan_ok for r in rows])
         self.any_nan_ok = bool(self.nan_ok.any())
-        self._in = np.empty(len(rows), dtype=bool)
-        self._tmp = np.empty(len(rows), dtype=bool)
 
     def values(self, msg: object) -> np.ndarray:
         vals: list = []
@@ -157,15 +155,22 @@ class _Checker:
         return np.array(vals, dtype=float)
 
     def check(self, channel: str, v: np.ndarray) -> None:
-        ok = np.greater_equal(v, self.lo, out=self._in)
-        ok &= np.less_equal(v, self.hi, out=self._tmp)
-        if self.any_nan_ok:
-            ok |= np.isnan(v, out=self._tmp) & self.nan_ok
+        ok = _in_bounds(v, self.lo, self.hi, self.nan_ok if self.any_nan_ok else None)
         if ok.all():
             return
         i = int(np.argmin(ok))
         _check_value(channel, self.labels[i], float(v[i]), self.ranges[i])
         raise MessageError(channel, self.labels[i], f"{v[i]!r} rejected")  # not reached: _check_value raised
+
+
+def _in_bounds(v: np.ndarray, lo: np.ndarray, hi: np.ndarray, nan_ok: np.ndarray | None) -> np.ndarray:
+    """lo <= v <= hi elementwise (NaN fails unless nan_ok). Fresh arrays, no shared scratch buffers: a
+    decode may run in an LCM handler thread and the node's thread at once."""
+    ok = v >= lo
+    ok &= v <= hi
+    if nan_ok is not None:
+        ok |= np.isnan(v) & nan_ok
+    return ok
 
 
 def _check_header(channel: str, msg: object) -> None:
@@ -190,6 +195,29 @@ MOTOR_COMMAND_CHECK = _Checker(MOTOR_COMMAND_RANGES, _sizes(motor_command_t, MOT
 
 
 _LAYOUTS = layouts(LCM_TYPES)
+
+
+class _FlatBounds:
+    """Bounds on every value of a fixed-size message as `Layout.unpack` returns them (header, enums and
+    booleans included), so a decoded message is accepted by one vectorised comparison of one float vector.
+    It accepts exactly what the per-field checks accept (they run, and name the field, when it fails)."""
+
+    def __init__(self, cls: type, ranges: dict, extra: dict[str, tuple[float, float]]) -> None:
+        layout = _LAYOUTS[cls]
+        n = layout.n_values
+        self.lo, self.hi = np.full(n, -math.inf), np.full(n, math.inf)
+        self.nan_ok = np.zeros(n, dtype=bool)
+        for name, (lo, hi) in extra.items():
+            a, k = layout.index(name)
+            self.lo[a:a + k], self.hi[a:a + k] = lo, hi
+        for name, r in ranges.items():
+            a, k = layout.index(name)
+            for i, ri in enumerate(r if isinstance(r, list) else [r] * k):
+                self.lo[a + i], self.hi[a + i], self.nan_ok[a + i] = ri.lo, ri.hi, ri.nan_ok
+        self._nan_ok = self.nan_ok if self.nan_ok.any() else None
+
+    def ok(self, v: np.ndarray) -> bool:
+        return bool(_in_bounds(v, self.lo, self.hi, self._nan_ok).all())
 
 
 def _blank(cls: type):
@@ -246,7 +274,35 @@ def _us(stamp_s: float) -> int:
 
 
 # --- per-type decode (validated) ------------------------------------------------------------------
+_HEADER = {"utime": (0.0, math.inf), "seq": (0.0, math.inf)}  # as _check_header
+_MODE_BOUNDS = (0.0, float(len(MODES) - 1))  # as _mode: Mode values are 0..n-1 (types.MODES)
+_TORSO = _LAYOUTS[torso_state_t]
+_T_UTIME, _T_SEQ, _T_Q1, _T_DQ1, _T_DDQ1, _T_VALID, _T_QUAT, _T_OMEGA = (
+    _TORSO.index(f)[0] for f in ("utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega"))
+_TORSO_BOUNDS = (_FlatBounds(torso_state_t, _TORSO_NO_DDQ1, _HEADER),  # by ddq1_valid
+                 _FlatBounds(torso_state_t, TORSO_RANGES, _HEADER))
+
+
 def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
+    vals = _TORSO.unpack(data)  # one struct call; one bounds check; the checked path names any problem
+    if vals is not None:
+        valid = vals[_T_VALID] != 0
+        v = np.array(vals, dtype=float)
+        if _TORSO_BOUNDS[valid].ok(v):
+            a = _T_QUAT
+            w, x, y, z = vals[a:a + 4]
+            norm = math.sqrt(w * w + x * x + y * y + z * z)
+            if 0.9 <= norm <= 1.1:
+                quat = v[a:a + 4]
+                quat /= norm
+                return TorsoState(q1=vals[_T_Q1], dq1=vals[_T_DQ1], ddq1=vals[_T_DDQ1] if valid else 0.0,
+                                  ddq1_valid=valid, quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3],
+                                  stamp_s=_s(vals[_T_UTIME]), seq=vals[_T_SEQ])
+    return decode_torso_checked(data, channel)
+
+
+def decode_torso_checked(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
+    """`decode_torso` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, torso_state_t)
     _check_header(channel, m)
     check = TORSO_CHECK if m.ddq1_valid else TORSO_CHECK_NO_DDQ1
@@ -273,7 +329,29 @@ def _mode(channel: str, name: str, value: int) -> Mode:
         raise MessageError(channel, name, f"{value} is not a mode (0..{max(Mode)})") from None
 
 
+_COMMAND = _LAYOUTS[spine_command_t]
+_C_UTIME, _C_SEQ, _C_MODE, _C_X_D, _C_DX_D, _C_DDX_D, _C_K, _C_D, _C_FRICTION, _C_TAU_FF, _C_RESET = (
+    _COMMAND.index(f)[0] for f in ("utime", "seq", "mode", "x_d", "dx_d", "ddx_d", "k", "d",
+                                   "friction_compensation", "tau_ff", "reset"))
+_COMMAND_BOUNDS = _FlatBounds(spine_command_t, COMMAND_RANGES, {**_HEADER, "mode": _MODE_BOUNDS})
+
+
 def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
+    vals = _COMMAND.unpack(data)  # one struct call; one bounds check; the checked path names any problem
+    if vals is not None:
+        v = np.array(vals, dtype=float)
+        if _COMMAND_BOUNDS.ok(v):
+            return SpineCommand(mode=MODES[vals[_C_MODE]], x_d=v[_C_X_D:_C_X_D + 3],
+                                dx_d=v[_C_DX_D:_C_DX_D + 3], ddx_d=v[_C_DDX_D:_C_DDX_D + 3],
+                                k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
+                                friction_compensation=vals[_C_FRICTION] != 0,
+                                tau_ff=v[_C_TAU_FF:_C_TAU_FF + 3], reset=vals[_C_RESET] != 0,
+                                stamp_s=_s(vals[_C_UTIME]), seq=vals[_C_SEQ])
+    return decode_command_checked(data, channel)
+
+
+def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
+    """`decode_command` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, spine_command_t)
     _check_header(channel, m)
     mode = _mode(channel, "mode", m.mode)
@@ -400,13 +478,19 @@ def encode_motor_command(c: MotorCommand, feedback_seq: int = -1) -> bytes:
     return _encode(m)
 
 
+_STATE = _LAYOUTS[spine_state_t]
+if tuple(spine_state_t.__slots__) != (
+        "utime", "seq", "mode", "requested_mode", "faults", "rejected", "q", "dq", "tau_cmd", "tau_est", "x",
+        "dx", "gain_scale", "load_cell", "temperature", "period", "jitter_max", "compute", "feedback_seq",
+        "command_seq", "torso_seq"):
+    raise RuntimeError("spine_state_t changed: update codec.encode_state's field order")
+
+
 def encode_state(s: SpineState) -> bytes:
-    m = _blank(spine_state_t)
-    m.utime, m.seq, m.mode, m.requested_mode = _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode)
-    m.faults, m.rejected = int(s.faults), s.rejected
-    m.q, m.dq, m.tau_cmd, m.tau_est = _l(s.q, 4), _l(s.dq, 4), _l(s.tau_cmd), _l(s.tau_est)
-    m.x, m.dx, m.gain_scale = _l(s.x), _l(s.dx), float(s.gain_scale)
-    m.load_cell, m.temperature = _l(s.load_cell, 2), _l(s.temperature)
-    m.period, m.jitter_max, m.compute = float(s.period), float(s.jitter_max), float(s.compute)
-    m.feedback_seq, m.command_seq, m.torso_seq = int(s.feedback_seq), int(s.command_seq), int(s.torso_seq)
-    return _encode(m)
+    """One list of values in spine_state_t's slot order (checked at import), packed by the precompiled
+    layout: no generated object in between."""
+    return _STATE.pack([
+        _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode), int(s.faults), s.rejected,
+        *_l(s.q, 4), *_l(s.dq, 4), *_l(s.tau_cmd), *_l(s.tau_est), *_l(s.x), *_l(s.dx), float(s.gain_scale),
+        *_l(s.load_cell, 2), *_l(s.temperature), float(s.period), float(s.jitter_max), float(s.compute),
+        int(s.feedback_seq), int(s.command_seq), int(s.torso_seq)])

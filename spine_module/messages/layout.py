@@ -50,13 +50,27 @@ class Layout:
         self.size = 8 + sum(st.size for st, _, _ in self.parts if st is not None) if self.fixed else None
         self._struct = self.parts[0][0] if self.fixed and len(self.parts) == 1 else None
 
-    def decode(self, data: bytes) -> Any | None:
-        """The generated message object for `data`, or None unless `data` is exactly one message of this
-        type (then lcm-gen's path runs and names the problem)."""
+    def index(self, name: str) -> tuple[int, int]:
+        """(start, count) of field `name` in the flat value tuple that `unpack` returns and `pack` takes."""
+        for fname, a, n, _arr, _b in self.fields:
+            if fname == name:
+                return a, n
+        raise KeyError(f"{self.cls.__name__} has no field {name!r}")
+
+    def unpack(self, data: bytes) -> tuple | None:
+        """Every value of a fixed-size message in slot order, arrays flattened (booleans as the raw
+        int8), or None unless `data` is exactly one message of this type."""
         st = self._struct
         if st is None or len(data) != self.size or data[:8] != self.fingerprint:
             return None
-        vals = st.unpack_from(data, 8)
+        return st.unpack_from(data, 8)
+
+    def decode(self, data: bytes) -> Any | None:
+        """The generated message object for `data`, or None unless `data` is exactly one message of this
+        type (then lcm-gen's path runs and names the problem)."""
+        vals = self.unpack(data)
+        if vals is None:
+            return None
         m = object.__new__(self.cls)
         for name, a, n, is_array, is_bool in self.fields:
             if is_array:
@@ -77,6 +91,13 @@ class Layout:
                 flat += v
             else:
                 flat.append(v)
+        return self.pack(flat)
+
+    def pack(self, flat: list | tuple) -> bytes:
+        """The message's bytes from its values in slot order, arrays flattened (`unpack`'s inverse; the
+        caller guarantees each array's length, a wrong total count is a struct.error)."""
+        if len(flat) != self.n_values:
+            raise struct.error(f"{self.cls.__name__}: {len(flat)} values, the layout has {self.n_values}")
         out = [self.fingerprint]
         for st, lo, hi in self.parts:
             if st is None:

@@ -16,19 +16,13 @@ def _zeros(n: int) -> np.ndarray:
     return np.zeros(n)
 
 
-class _Copyable:
-    """A copy that shares no array with the original: what a transport would hand over, at a fraction
-    of `copy.deepcopy`'s cost (the in-process bus copies twice per 1 kHz tick)."""
-
-    def copy(self):
-        new = object.__new__(type(self))  # plain dataclasses: every field lives in __dict__
-        new.__dict__.update({k: v.copy() if isinstance(v, np.ndarray) else v
-                             for k, v in self.__dict__.items()})
-        return new
+def _c(v):
+    """An array's own copy; anything else as it is."""
+    return v.copy() if isinstance(v, np.ndarray) else v
 
 
 @dataclass
-class MotorCommand(_Copyable):
+class MotorCommand:
     """Operation-control command per joint: tau = tau_ff + kp (q_des - q) + kd (dq_des - dq).
 
     Units: tau_ff N*m, q_des rad, dq_des rad/s, kp N*m/rad, kd N*m*s/rad. `enable=False` asks the backend
@@ -49,6 +43,12 @@ class MotorCommand(_Copyable):
         dq (rad/s). Clipping to a torque limit and disabled/timed-out handling are the caller's."""
         return self.tau_ff + self.kp * (self.q_des - q) + self.kd * (self.dq_des - dq)
 
+    def copy(self) -> MotorCommand:
+        """A copy sharing no array with this one: what a transport hands over (the in-process bus copies
+        every command; one constructor call, not `copy.deepcopy`)."""
+        return MotorCommand(_c(self.tau_ff), _c(self.q_des), _c(self.dq_des), _c(self.kp), _c(self.kd),
+                            self.enable, self.stamp_s, self.seq)
+
     @classmethod
     def zero(cls, n: int = 3, enable: bool = False) -> MotorCommand:
         return cls(tau_ff=_zeros(n), q_des=_zeros(n), dq_des=_zeros(n), kp=_zeros(n), kd=_zeros(n),
@@ -56,7 +56,7 @@ class MotorCommand(_Copyable):
 
 
 @dataclass
-class MotorFeedback(_Copyable):
+class MotorFeedback:
     """Measured joint state per motor. `stamp_s` is when it was measured, on the producer's clock (s)."""
 
     q: np.ndarray  # rad
@@ -69,3 +69,8 @@ class MotorFeedback(_Copyable):
     load_cell_n: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))
     stamp_s: float = 0.0
     seq: int = 0
+
+    def copy(self) -> MotorFeedback:
+        """A copy sharing no array with this one (see `MotorCommand.copy`)."""
+        return MotorFeedback(_c(self.q), _c(self.dq), _c(self.tau), _c(self.temperature_c), _c(self.mode),
+                             _c(self.fault), _c(self.load_cell_n), self.stamp_s, self.seq)

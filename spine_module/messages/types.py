@@ -46,6 +46,9 @@ class Fault(IntFlag):
 
 
 LATCHING = Fault.HEARTBEAT_LOST | Fault.ESTOP
+MODES: tuple[Mode, ...] = tuple(sorted(Mode))  # MODES[i] is Mode(i) without the enum call (1 kHz paths)
+if [int(m) for m in MODES] != list(range(len(MODES))):
+    raise RuntimeError("Mode values must be 0..n-1 (MODES[i] is Mode(i))")
 
 
 def _vec(values, n: int = 3) -> np.ndarray:

@@ -25,18 +25,22 @@ from spine_module import params, safety
 from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
 from spine_module.messages import Fault, Heartbeat, MessageError, Mode, SpineCommand, SpineState, TorsoState
 from spine_module.messages import channels as ch
+from spine_module.messages.types import MODES
 from spine_module.node.clocks import PeriodStats, RealTimeClock
 from spine_module.node.controllers import Controllers
 from spine_module.node.io import NodeIO
 
 log = logging.getLogger("spine_module.node")
 
-_BAD_BY_CHANNEL = {ch.TORSO_STATE: Fault.BAD_TORSO, ch.SPINE_COMMAND: Fault.BAD_COMMAND,
-                   ch.HEARTBEAT_ROBOT: Fault.BAD_COMMAND, ch.MOTOR_FEEDBACK: Fault.BAD_FEEDBACK}
+_BAD_COMMAND = int(Fault.BAD_COMMAND)
+_BAD_BY_CHANNEL = {ch.TORSO_STATE: int(Fault.BAD_TORSO), ch.SPINE_COMMAND: _BAD_COMMAND,
+                   ch.HEARTBEAT_ROBOT: _BAD_COMMAND, ch.MOTOR_FEEDBACK: int(Fault.BAD_FEEDBACK)}
 _NOISY = Fault.TORQUE_CLAMPED | Fault.JOINT_LIMIT
 _NOISY_BITS = int(_NOISY)
 _MOTOR, _CONTROLLER, _BUS = int(Fault.MOTOR), int(Fault.CONTROLLER), int(Fault.BUS)
 _JOINT_LIMIT, _TORQUE_CLAMPED = int(Fault.JOINT_LIMIT), int(Fault.TORQUE_CLAMPED)
+_IMPEDANCE, _PD = int(Mode.IMPEDANCE), int(Mode.PD)
+_DAMPING, _JOINT_TORQUE = int(Mode.DAMPING), int(Mode.JOINT_TORQUE)
 
 
 @dataclass
@@ -69,12 +73,25 @@ class SpineNode:
         self.bus = bus
         self.io = io
         self.cfg = config if config is not None else NodeConfig()
-        self.safety = safety.SafetyState()
-        self.rx = safety.Receipts()
+        # safety state and input receipts as plain values (`safety.supervise_values`); the `safety` and `rx`
+        # properties show them as the SafetyState / Receipts objects
+        self._latched = 0  # latched fault bits
+        self._heartbeat_seen = False
+        self._safety_mode = int(Mode.DISABLED)  # mode that ran last tick
+        self._ramp_t0: float | None = None
+        self._stale_since: float | None = None
+        self._reset_count = 0
+        self._rx_torso: float | None = None  # when each input last arrived (valid), node time, s
+        self._rx_feedback: float | None = None
+        self._rx_command: float | None = None
+        self._rx_heartbeat: float | None = None
         self.fb: MotorFeedback | None = None
+        self._fb_q: list[float] = []  # the accepted feedback's q, dq as floats, and whether a motor faults
+        self._fb_dq: list[float] = []
+        self._fb_motor_fault = False
         self.torso: TorsoState | None = None
         self.command: SpineCommand | None = None
-        self._bad_until: dict[Fault, float] = {}  # BAD_* bit -> node time it is shown until
+        self._bad_until: dict[int, float] = {}  # BAD_* bit -> node time it is shown until
         self.rejected = ""
         self.rejected_count = 0
         self.seq = 0
@@ -82,8 +99,8 @@ class SpineNode:
         self.state = SpineState()
         self._hb_seq = 0
         self._hb_next: float | None = None
-        self._last_faults = Fault.NONE
-        self._pending_bus_fault = Fault.NONE
+        self._last_faults = 0
+        self._pending_bus_fault = 0
         self._ratelog = _RateLimitedLog()
         self.last_now: float | None = None
         self.last_command: MotorCommand | None = None
@@ -91,8 +108,28 @@ class SpineNode:
         self.tick_errors = 0
         self._ramp_key: float | None = None  # ramp start time the ramp origin below belongs to
         self._ramp_from: np.ndarray | None = None
+        self._set_ctrl: object | None = None  # controller whose gains and target were last set, and from what
+        self._set_for: list = []
         self._lower = np.asarray(self.cfg.safety.lower, dtype=float).tolist()
         self._upper = np.asarray(self.cfg.safety.upper, dtype=float).tolist()
+        margin = self.cfg.safety.limit_margin
+        # (lo + margin, hi - margin) per joint: the same float expressions `joint_limit_damping_list` compares
+        # with, so a joint inside them is exactly one it would not damp (margin <= 0: always ask it)
+        self._inside = (([lo + margin for lo in self._lower], [hi - margin for hi in self._upper])
+                        if margin > 0 and len(self._lower) == 3 == len(self._upper) else (None, None))
+
+    @property
+    def safety(self) -> safety.SafetyState:
+        """The watchdogs' and latches' state after the last tick."""
+        return safety.SafetyState(latched=Fault(self._latched), heartbeat_seen=self._heartbeat_seen,
+                                  mode=MODES[self._safety_mode], ramp_t0=self._ramp_t0,
+                                  stale_since=self._stale_since, reset_count=self._reset_count)
+
+    @property
+    def rx(self) -> safety.Receipts:
+        """When each input last arrived (valid), node time, s; None if never."""
+        return safety.Receipts(torso=self._rx_torso, feedback=self._rx_feedback, command=self._rx_command,
+                               heartbeat=self._rx_heartbeat)
 
     # --- inputs -----------------------------------------------------------------------------------
     def receive(self, timeout_s: float | None) -> MotorFeedback | None:
@@ -111,95 +148,121 @@ class SpineNode:
             self._ratelog(f"reject:{exc.__cause__.channel}.{exc.__cause__.field}", now, logging.WARNING,
                           "rejected %s", exc.__cause__)
         else:
-            self._pending_bus_fault |= Fault.BUS
+            self._pending_bus_fault |= _BUS
             self._ratelog("bus", now, logging.ERROR, "motor bus error: %s", exc)
 
     def _accept_feedback(self, fb: MotorFeedback, now: float) -> None:
-        if not (_finite3(fb.q) and _finite3(fb.dq) and _finite3(fb.tau)):  # plain floats: ~1 us, not ~10
+        q, dq = _finite3(fb.q), _finite3(fb.dq)  # plain floats: ~1 us, not ~10
+        if q is None or dq is None or _finite3(fb.tau) is None:
             self._flag_bad(Fault.BAD_FEEDBACK, now)
             self.rejected = f"{ch.MOTOR_FEEDBACK}: non-finite or mis-shaped q/dq/tau"
             self.rejected_count += 1
             self._ratelog("reject:feedback", now, logging.WARNING, "rejected %s", self.rejected)
             return
         self.fb = fb
-        self.rx = _rx(self.rx, feedback=now)
+        self._fb_q, self._fb_dq = q, dq
+        self._fb_motor_fault = any(np.asarray(fb.fault).tolist())
+        self._rx_feedback = now
 
-    def _flag_bad(self, bit: Fault, now: float) -> None:
-        self._bad_until[bit] = now + self.cfg.bad_hold_s
+    def _flag_bad(self, bit: Fault | int, now: float) -> None:
+        self._bad_until[int(bit)] = now + self.cfg.bad_hold_s
 
     # --- one tick -----------------------------------------------------------------------------------
     def tick(self, now: float, feedback: MotorFeedback | None, wall_s: float | None = None) -> SpineState:
-        """Run one control step at node time `now` with the feedback received for it (None: none new)."""
+        """Run one control step at node time `now` with the feedback received for it (None: none new).
+
+        Returns a new SpineState (callers may keep it; nothing in it is reused by a later tick)."""
         t_start = time.perf_counter()
-        self.stats.mark(time.monotonic() if wall_s is None else wall_s)
+        stats = self.stats
+        stats.mark(time.monotonic() if wall_s is None else wall_s)
         self.last_now = now
-        cfg, scfg = self.cfg, self.cfg.safety
+        cfg = self.cfg
+        scfg = cfg.safety
         if feedback is not None:
             self._accept_feedback(feedback, now)
-        self.io.poll()
-        torso, command, heartbeat, reset, rejects = self.io.inbox.take()
+        io = self.io
+        io.poll()
+        torso, command, heartbeat, reset, rejects = io.inbox.take()
         for rej in rejects:
-            self._flag_bad(_BAD_BY_CHANNEL.get(rej.channel, Fault.BAD_COMMAND), now)
+            self._flag_bad(_BAD_BY_CHANNEL.get(rej.channel, _BAD_COMMAND), now)
             self.rejected = str(rej)
             self.rejected_count += 1
             self._ratelog(f"reject:{rej.channel}.{rej.field}", now, logging.WARNING, "rejected %s", rej)
         if torso is not None:
             self.torso = torso
-            self.rx = _rx(self.rx, torso=now)
+            self._rx_torso = now
         if command is not None:
             self.command = command
-            self.rx = _rx(self.rx, command=now)
+            self._rx_command = now
         if heartbeat is not None:
-            self.rx = _rx(self.rx, heartbeat=now)
+            self._rx_heartbeat = now
 
-        requested = self.command.mode if self.command is not None else Mode.DISABLED
-        self.safety, v = safety.supervise(self.safety, now, self.rx, requested, reset, scfg)
+        command = self.command
+        requested = command.mode if command is not None else Mode.DISABLED
+        (self._latched, self._heartbeat_seen, mode_i, self._ramp_t0, self._stale_since, self._reset_count,
+         faults, scale, default_gains, enable) = safety.supervise_values(
+            self._latched, self._heartbeat_seen, self._safety_mode, self._ramp_t0, self._stale_since,
+            self._reset_count, now, self._rx_torso, self._rx_feedback, self._rx_command, self._rx_heartbeat,
+            int(requested), reset, scfg)
+        self._safety_mode = mode_i
+        mode = MODES[mode_i]
         # fault bits as a plain int inside the tick (IntFlag arithmetic costs ~1 us per operation)
-        faults = int(v.faults) | int(self._pending_bus_fault)
-        for bit, until in self._bad_until.items():
-            if now <= until:
-                faults |= int(bit)
-        self._pending_bus_fault = Fault.NONE
+        if self._pending_bus_fault:
+            faults |= self._pending_bus_fault
+            self._pending_bus_fault = 0
+        if self._bad_until:
+            for bit, until in self._bad_until.items():
+                if now <= until:
+                    faults |= bit
 
         # joint state as plain floats: three numbers per tick are cheaper than numpy temporaries
         torso, fb = self.torso, self.fb
-        q_l = [torso.q1 if torso is not None else 0.0, *(_floats(fb.q) if fb is not None else (0.0,) * 3)]
-        dq_l = [torso.dq1 if torso is not None else 0.0, *(_floats(fb.dq) if fb is not None else (0.0,) * 3)]
+        q1, dq1 = (torso.q1, torso.dq1) if torso is not None else (0.0, 0.0)
+        if fb is not None:
+            q_l, dq_l = [q1, *self._fb_q], [dq1, *self._fb_dq]
+            if self._fb_motor_fault:
+                faults |= _MOTOR
+        else:
+            q_l, dq_l = [q1, 0.0, 0.0, 0.0], [dq1, 0.0, 0.0, 0.0]
         q, dq = np.array(q_l), np.array(dq_l)
-        if fb is not None and any(np.asarray(fb.fault).tolist()):
-            faults |= _MOTOR
         tau_l = [0.0, 0.0, 0.0]
         x = dx = None
-        mode = v.mode
-        controlled = mode == Mode.IMPEDANCE or mode == Mode.PD
+        controlled = mode_i == _IMPEDANCE or mode_i == _PD
         controller_failed = False
         if controlled:
-            tau_l, x, dx, ok = self._control(mode, v, q, dq)
+            tau_l, x, dx, ok = self._control(mode_i, scale, default_gains, q, dq)
             if not ok:
                 faults |= _CONTROLLER
                 controller_failed = True
         else:
-            if fb is not None and all(math.isfinite(a) for a in q_l) and all(math.isfinite(a) for a in dq_l):
+            if fb is not None and math.isfinite(q1) and math.isfinite(dq1):
                 x, dx = self.ctrl.task_state(q, dq)
-            if mode == Mode.JOINT_TORQUE:
-                tau_l = np.asarray(self.command.tau_ff, dtype=float).tolist()
-            elif mode == Mode.DAMPING:
-                tau_l = [-scfg.damping_mode * a for a in dq_l[1:]]
-        if (controlled or mode == Mode.DAMPING or mode == Mode.JOINT_TORQUE) and not controller_failed:
-            extra, near = safety.joint_limit_damping_list(q_l[1:], dq_l[1:], self._lower, self._upper,
-                                                          scfg.limit_margin, scfg.joint_limit_damping)
-            if any(near):
-                faults |= _JOINT_LIMIT
-                tau_l = [a + b for a, b in zip(tau_l, extra, strict=True)]
-        tau_l, sat = safety.clamp_torque_list(tau_l, scfg.torque_limit)
-        if any(sat):
-            faults |= _TORQUE_CLAMPED
-        tau = np.array(tau_l) if v.enable else np.zeros(3)
+            if mode_i == _JOINT_TORQUE:
+                tau_l = np.asarray(command.tau_ff, dtype=float).tolist()
+            elif mode_i == _DAMPING:
+                c = scfg.damping_mode
+                tau_l = [-c * a for a in dq_l[1:]]
+        if (controlled or mode_i == _DAMPING or mode_i == _JOINT_TORQUE) and not controller_failed:
+            lo, hi = self._inside  # joints between these are outside every limit margin: no damping
+            if not (lo is not None and lo[0] <= q_l[1] <= hi[0] and lo[1] <= q_l[2] <= hi[1]
+                    and lo[2] <= q_l[3] <= hi[2]):
+                extra, near = safety.joint_limit_damping_list(q_l[1:], dq_l[1:], self._lower, self._upper,
+                                                              scfg.limit_margin, scfg.joint_limit_damping)
+                if any(near):
+                    faults |= _JOINT_LIMIT
+                    tau_l = [a + b for a, b in zip(tau_l, extra, strict=True)]
+        lim = scfg.torque_limit
+        if not (len(tau_l) == 3 and -lim <= tau_l[0] <= lim and -lim <= tau_l[1] <= lim
+                and -lim <= tau_l[2] <= lim):  # else all finite and inside: nothing to clamp
+            tau_l, sat = safety.clamp_torque_list(tau_l, lim)
+            if any(sat):
+                faults |= _TORQUE_CLAMPED
+        tau = np.array(tau_l) if enable else np.zeros(3)
         if x is None:
             x = np.full(3, np.nan)
             dx = np.full(3, np.nan)
 
-        cmd = MotorCommand(tau_ff=tau, enable=v.enable, stamp_s=now, seq=self.seq)
+        cmd = MotorCommand(tau_ff=tau, enable=enable, stamp_s=now, seq=self.seq)
         self.last_command = cmd
         try:
             self.bus.send(cmd)
@@ -207,53 +270,56 @@ class SpineNode:
             self._bus_error(exc, now)
             faults |= _BUS
 
-        if self._hb_next is None or now >= self._hb_next or now < self._hb_next - 10 * cfg.heartbeat_period_s:
+        hb_next = self._hb_next
+        if hb_next is None or now >= hb_next or now < hb_next - 10 * cfg.heartbeat_period_s:
             self._hb_next = now + cfg.heartbeat_period_s
-            self.io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(self.safety.latched),
-                                                reset_count=self.safety.reset_count, stamp_s=now,
-                                                seq=self._hb_seq))
+            io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(self._latched),
+                                           reset_count=self._reset_count, stamp_s=now, seq=self._hb_seq))
             self._hb_seq += 1
 
-        self._log_transitions(faults, mode, now)
-        faults = Fault(faults)
+        if faults != self._last_faults:
+            self._log_transitions(faults, mode, now)
         fb = self.fb
+        if fb is not None:
+            tau_est, fb_seq = fb.tau.copy(), fb.seq
+            load_cell = np.array(fb.load_cell_n, dtype=float)
+            temperature = np.array(fb.temperature_c, dtype=float)
+        else:
+            tau_est, fb_seq, load_cell, temperature = np.zeros(3), -1, np.full(2, np.nan), np.zeros(3)
         s = SpineState(
-            stamp_s=now, seq=self.seq, mode=mode, requested_mode=requested, faults=faults,
-            rejected=self.rejected,
-            q=q, dq=dq, tau_cmd=tau, tau_est=fb.tau.copy() if fb is not None else np.zeros(3), x=x, dx=dx,
-            gain_scale=v.gain_scale,
-            load_cell=np.array(fb.load_cell_n, dtype=float) if fb is not None else np.full(2, np.nan),
-            temperature=np.array(fb.temperature_c, dtype=float) if fb is not None else np.zeros(3),
-            period=self.stats.period, jitter_max=self.stats.jitter_max, compute=time.perf_counter() - t_start,
-            feedback_seq=fb.seq if fb is not None else -1,
-            command_seq=self.command.seq if self.command is not None else -1,
+            stamp_s=now, seq=self.seq, mode=mode, requested_mode=requested, faults=_fault(faults),
+            rejected=self.rejected, q=q, dq=dq, tau_cmd=tau, tau_est=tau_est, x=x, dx=dx, gain_scale=scale,
+            load_cell=load_cell, temperature=temperature, period=stats.period, jitter_max=stats.jitter_max,
+            compute=time.perf_counter() - t_start, feedback_seq=fb_seq,
+            command_seq=command.seq if command is not None else -1,
             torso_seq=self.torso.seq if self.torso is not None else -1)
         self.state = s
         if self.seq % cfg.state_every == 0:
-            self.io.publish_state(s)
+            io.publish_state(s)
         self.seq += 1
         return s
 
-    def _control(self, mode: Mode, v: safety.Verdict, q: np.ndarray, dq: np.ndarray):
+    def _control(self, mode: int, scale: float, default_gains: bool, q: np.ndarray, dq: np.ndarray):
         c = self.command
-        scfg = self.cfg.safety
-        if mode == Mode.PD:
+        if mode == _PD:
             ctrl = self.ctrl.pd
         else:
             ctrl = self.ctrl.impedance
-            ctrl.friction_enabled = c.friction_compensation or v.default_gains
-        k, d = (scfg.default_k, scfg.default_d) if v.default_gains else (c.k, c.d)
+            ctrl.friction_enabled = c.friction_compensation or default_gains
         ddq1 = self.torso.ddq1 if self.torso is not None and self.torso.ddq1_valid else 0.0
-        x_d = np.asarray(c.x_d, dtype=float)
-        dx_d, ddx_d = (np.zeros(3), np.zeros(3)) if v.default_gains else (c.dx_d, c.ddx_d)
-        if v.gain_scale < 1.0 and scfg.soft_start_target:
-            x_d, dx_d, ddx_d = self._ramped_target(v.gain_scale, x_d, dx_d, ddx_d, q, dq)
         try:
-            scale = v.gain_scale
-            ctrl.set_gains(k=[a * scale for a in _floats(k)], d=[a * scale for a in _floats(d)])
-            ctrl.set_target(x_d=x_d, dx_d=dx_d, ddx_d=ddx_d)
+            # gains and target change only with the command's numbers, the soft-start scale or the
+            # controller: set them then, not every tick (a stream of equal commands costs one compare)
+            key = [scale, default_gains, self._ramp_t0, *_floats(c.x_d)]
+            if not default_gains:
+                key += (*_floats(c.k), *_floats(c.d), *_floats(c.dx_d), *_floats(c.ddx_d))
+            if ctrl is not self._set_ctrl or key != self._set_for:
+                self._set_ctrl = None
+                self._set_gains_and_target(ctrl, c, scale, default_gains, q, dq)
+                self._set_ctrl, self._set_for = ctrl, key
             out = ctrl.step(q, dq, ddq1=ddq1)
         except Exception as exc:  # the loop never dies; the controller promises not to raise anyway
+            self._set_ctrl = None
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller raised: %r", exc)
             return [0.0, 0.0, 0.0], np.full(3, np.nan), np.full(3, np.nan), False
         x, dx = np.array(out.x, dtype=float), np.array(out.dx, dtype=float)
@@ -262,15 +328,26 @@ class SpineNode:
                           out.error)
             return [0.0, 0.0, 0.0], x, dx, False
         tau = np.asarray(out.tau, dtype=float).tolist()
-        if not v.default_gains:
+        if not default_gains:
             tau = [a + b for a, b in zip(tau, _floats(c.tau_ff), strict=True)]
         return tau, x, dx, True
+
+    def _set_gains_and_target(self, ctrl, c: SpineCommand, scale: float, default_gains: bool, q: np.ndarray,
+                              dq: np.ndarray) -> None:
+        scfg = self.cfg.safety
+        k, d = (scfg.default_k, scfg.default_d) if default_gains else (c.k, c.d)
+        x_d = np.asarray(c.x_d, dtype=float)
+        dx_d, ddx_d = (np.zeros(3), np.zeros(3)) if default_gains else (c.dx_d, c.ddx_d)
+        if scale < 1.0 and scfg.soft_start_target:
+            x_d, dx_d, ddx_d = self._ramped_target(scale, x_d, dx_d, ddx_d, q, dq)
+        ctrl.set_gains(k=[a * scale for a in _floats(k)], d=[a * scale for a in _floats(d)])
+        ctrl.set_target(x_d=x_d, dx_d=dx_d, ddx_d=ddx_d)
 
     def _ramped_target(self, scale: float, x_d, dx_d, ddx_d, q: np.ndarray, dq: np.ndarray):
         """During a soft start the target moves from the pose at the ramp's start to the commanded one,
         so a spine that starts far from its target is not yanked there (as gains come up)."""
-        if self._ramp_key != self.safety.ramp_t0:
-            self._ramp_key = self.safety.ramp_t0
+        if self._ramp_key != self._ramp_t0:
+            self._ramp_key = self._ramp_t0
             x0, _ = self.ctrl.task_state(q, dq)
             self._ramp_from = x0 if np.all(np.isfinite(x0)) else None
         if self._ramp_from is None:
@@ -279,7 +356,7 @@ class SpineNode:
         return x0 + scale * (x_d - x0), scale * np.asarray(dx_d), scale * np.asarray(ddx_d)
 
     def _log_transitions(self, faults: int, mode: Mode, now: float) -> None:
-        last = int(self._last_faults)
+        last = self._last_faults
         quiet = faults & ~_NOISY_BITS
         changed = quiet ^ (last & ~_NOISY_BITS)
         if changed:
@@ -321,9 +398,8 @@ class SpineNode:
         """Heartbeat while waiting for the first (or a late) feedback tick in lockstep, so the robot side
         knows the node is up; stamped with the node's last time."""
         now = self.last_now if self.last_now is not None else 0.0
-        self.io.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=bool(self.safety.latched),
-                                            reset_count=self.safety.reset_count, stamp_s=now,
-                                            seq=self._hb_seq))
+        self.io.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=bool(self._latched),
+                                            reset_count=self._reset_count, stamp_s=now, seq=self._hb_seq))
         self._hb_seq += 1
 
     def stop(self) -> None:
@@ -334,29 +410,32 @@ class SpineNode:
             log.error("could not stop motors: %s", exc)
 
 
-def _rx(rx: safety.Receipts, torso: float | None = None, feedback: float | None = None,
-        command: float | None = None, heartbeat: float | None = None) -> safety.Receipts:
-    """rx with the given receipt times replaced (a direct constructor call: `dataclasses.replace` costs
-    several microseconds, three times per 1 kHz tick)."""
-    return safety.Receipts(torso=rx.torso if torso is None else torso,
-                           feedback=rx.feedback if feedback is None else feedback,
-                           command=rx.command if command is None else command,
-                           heartbeat=rx.heartbeat if heartbeat is None else heartbeat)
-
-
 def _floats(a: object) -> list[float]:
     if type(a) is np.ndarray and a.dtype == np.float64:
         return a.tolist()
     return np.asarray(a, dtype=float).tolist()
 
 
-def _finite3(a: object) -> bool:
-    """a is 3 finite numbers (feedback check on plain floats)."""
+def _finite3(a: object) -> list[float] | None:
+    """a as 3 finite floats, or None (feedback check on plain floats)."""
     try:
         vals = a.tolist() if isinstance(a, np.ndarray) else list(a)
-        return len(vals) == 3 and math.isfinite(vals[0]) and math.isfinite(vals[1]) and math.isfinite(vals[2])
+        if len(vals) == 3 and math.isfinite(vals[0]) and math.isfinite(vals[1]) and math.isfinite(vals[2]):
+            return [float(v) for v in vals]
     except (TypeError, ValueError):
-        return False
+        pass
+    return None
+
+
+_FAULTS: dict[int, Fault] = {}
+
+
+def _fault(bits: int) -> Fault:
+    """Fault(bits), memoised: the enum call costs ~0.5 us, the node needs it once per tick."""
+    f = _FAULTS.get(bits)
+    if f is None:
+        f = _FAULTS[bits] = Fault(bits)
+    return f
 
 
 # --- loops ------------------------------------------------------------------------------------------
