@@ -141,9 +141,15 @@ class RobotSide:
     # -- running -------------------------------------------------------------------------------------
     def tick(self, lockstep: bool = True) -> None:
         """One whole tick: publish, let an in-thread node answer (`cosim`), take the answer, apply, step."""
-        t = self.publish_tick()
+        self.publish_tick()
+        self.finish_tick(*self.answer(lockstep))
+
+    def answer(self, lockstep: bool = True) -> tuple[MotorCommand | None, float]:
+        """The node's command for the tick just published and the lockstep round trip (wall s; NaN when
+        not waited for). Work that needs only this tick's state can run between `publish_tick` and this,
+        while a node in another process computes."""
         if self.cosim is not None:
-            self.cosim(self.k, t)
+            self.cosim(self.k, self.now())
             cmd = self.port.take_command(0.0, want_seq=self.k)
             rtt = math.nan
         elif lockstep:
@@ -155,7 +161,7 @@ class RobotSide:
             self.unanswered += 1
             if lockstep and self.unanswered in (1, 10, 100):
                 log.warning("tick %d: no answer from the node", self.k)
-        self.finish_tick(cmd, rtt)
+        return cmd, rtt
 
     def _await_answer(self) -> MotorCommand | None:
         deadline = time.monotonic() + self.cfg.lockstep_timeout_s

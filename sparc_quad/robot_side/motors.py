@@ -3,6 +3,8 @@ the watchdog's latch, and the feedback as a CyberGear frame carries it (quantise
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from spine_module import params as P
@@ -10,22 +12,28 @@ from spine_module.buses.cybergear.protocol import DEFAULT_RANGES, Ranges
 from spine_module.messages.motor import MotorCommand, MotorFeedback
 
 
-def _quantise(x: np.ndarray, lsb: float) -> None:
-    np.multiply(np.round(x / lsb), lsb, out=x)
+@functools.lru_cache(maxsize=8)
+def _frame_limits(lsb: tuple[float, float, float], ranges: Ranges) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row LSB and range of the (q, dq, tau) block, as columns (read-only)."""
+    step = np.array(lsb, dtype=float).reshape(3, 1)
+    top = np.array([ranges.position_max, ranges.velocity_max, ranges.torque_max], dtype=float).reshape(3, 1)
+    step.flags.writeable = top.flags.writeable = False
+    return step, top
 
 
 def as_frame(fb: MotorFeedback, quantise: bool = True, ranges: Ranges = DEFAULT_RANGES) -> MotorFeedback:
     """Quantise `fb` in place to the sensors' LSBs (P.SENSORS: idempotent when the plant already did) and
-    clip it to what a type-2 frame can carry (`ranges`, the CAN protocol's)."""
-    fb.q, fb.dq, fb.tau = (np.array(a, dtype=float) for a in (fb.q, fb.dq, fb.tau))
+    clip it to what a type-2 frame can carry (`ranges`, the CAN protocol's). One (3, 3) block for q, dq
+    and tau (the same element-wise arithmetic as per vector; `fb.q`/`dq`/`tau` become its rows)."""
+    s = P.SENSORS
+    step, top = _frame_limits((s.position_lsb_rad, s.velocity_lsb_rad_s, s.torque_lsb_nm), ranges)
+    a = np.array((fb.q, fb.dq, fb.tau), dtype=float)
+    if a.shape != (3, 3):
+        raise ValueError(f"motor feedback q, dq, tau must be 3 values each, got shape {a.shape}")
     if quantise:
-        s = P.SENSORS
-        _quantise(fb.q, s.position_lsb_rad)
-        _quantise(fb.dq, s.velocity_lsb_rad_s)
-        _quantise(fb.tau, s.torque_lsb_nm)
-    np.clip(fb.q, -ranges.position_max, ranges.position_max, out=fb.q)
-    np.clip(fb.dq, -ranges.velocity_max, ranges.velocity_max, out=fb.dq)
-    np.clip(fb.tau, -ranges.torque_max, ranges.torque_max, out=fb.tau)
+        np.multiply(np.round(a / step), step, out=a)
+    np.clip(a, -top, top, out=a)
+    fb.q, fb.dq, fb.tau = a[0], a[1], a[2]
     return fb
 
 

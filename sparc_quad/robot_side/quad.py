@@ -66,9 +66,11 @@ class NodeSpine:
 
     def __call__(self, est, q_spine, dq_spine, t_sim: float) -> np.ndarray:
         self.plant.set(est, q_spine, dq_spine)
-        self.robot.tick(self.lockstep)
+        self.robot.publish_tick()
+        # needs only this tick's state: done while a node in another process computes the answer
         self.kinematics.update(np.concatenate(([est.q1], self.plant.q)),
                                np.concatenate(([est.dq1], self.plant.dq)))
+        self.robot.finish_tick(*self.robot.answer(self.lockstep))
         return self.plant.tau
 
     @property
