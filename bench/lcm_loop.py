@@ -14,19 +14,29 @@ with `unshare`, as the tests do):
 3. real time: `bench-robot --clock realtime` + `spine-node --clock realtime --rate 1000` holding the
    spine for a few seconds: achieved rates, the node's worst period jitter, ticks the robot stepped
    without a fresh command.
+4. bound (issue 11): `sparc-quad bound --lcm` + `spine-node --motors lcm --clock lockstep` against the
+   same bound in process (`run_bound`, default spine), same robot, same simulated seconds, best of
+   `--bound-repeat` each, alternating. Headline `lcm_lockstep_over_in_process` = in-process wall / LCM
+   lockstep wall (goal >= 0.5). The two processes are pinned to two different CPUs (`taskset`), as a node
+   on its own torso computer would be: unpinned, Linux wakes the node on the robot's CPU (wake-affine) and
+   the two alternate on one core. One unpinned run is reported beside it (`--no-unpinned` skips it). The
+   LCM run's trajectory is checked against the node ticked in process (max |difference| reported).
 
-    python bench/lcm_loop.py --json out/bench/lcm_loop.json
+    python bench/lcm_loop.py --json out/bench/lcm_loop.json [--bound-s 5 --bound-repeat 3]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import shlex
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -98,27 +108,86 @@ def _unshare() -> list[str]:
     raise SystemExit("cannot create a network namespace (unshare) here")
 
 
+def _pin_cpus() -> tuple[int, int] | None:
+    """Two CPUs this process may use (node, robot), or None (one CPU, or no `taskset`)."""
+    cpus = sorted(os.sched_getaffinity(0))
+    if len(cpus) < 2 or shutil.which("taskset") is None:
+        return None
+    return cpus[-1], cpus[0]
+
+
+def lcm_bound(duration_s: float, pin: tuple[int, int] | None, keep: Path | None = None) -> float:
+    """Wall time of `run_bound` in the robot process (its metrics' `wall_time_s`) of a `bound --lcm` run
+    against a lockstep spine node, two processes in a network namespace; `keep`: copy its CSV there."""
+    py = shlex.quote(sys.executable)
+    node_pin, robot_pin = (f"taskset -c {pin[0]} ", f"taskset -c {pin[1]} ") if pin else ("", "")
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        script = (f"set -e\n{SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}\n"
+                  f"{node_pin}{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 "
+                  f"--summary {d}/node.json > /dev/null 2> {d}/node.err &\nNODE=$!\n"
+                  f"{robot_pin}{py} -m sparc_quad bound --lcm --no-plots --duration {duration_s} "
+                  f"--out {d}/bound > /dev/null 2> {d}/robot.err\nwait $NODE\n")
+        r = subprocess.run([*_unshare(), "sh", "-c", script], cwd=ROOT, capture_output=True, text=True,
+                           timeout=600)
+        metrics = d / "bound" / "metrics.json"
+        if r.returncode != 0 or not metrics.exists():
+            errs = "\n".join(f"--- {p.name}\n{p.read_text()[-2000:]}" for p in d.glob("*.err"))
+            raise SystemExit(f"LCM bound failed (rc {r.returncode}):\n{r.stderr}\n{errs}")
+        ticks = json.loads((d / "node.json").read_text())["ticks"]
+        if ticks != round(duration_s * 1000):
+            raise SystemExit(f"LCM bound: the node ticked {ticks} times for {duration_s} s")
+        if keep is not None:
+            shutil.copy(d / "bound" / "timeseries.csv", keep)
+        return float(json.loads(metrics.read_text())["wall_time_s"])
+
+
+def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
+    """In-process bound against the same bound over LCM lockstep, alternating, best of `repeat`."""
+    import numpy as np
+
+    from sparc_quad.robot_side.quad import NodeSpine
+    from sparc_quad.sim.bound_log import COLUMNS
+    from sparc_quad.sim.bound_run import BoundConfig, run_bound
+
+    pin = _pin_cpus()
+    cfg = BoundConfig(duration_s=duration_s)
+    inproc, lcm_pinned, lcm_free = [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = Path(tmp) / "lcm.csv"
+        for i in range(repeat):
+            inproc.append(run_bound(cfg).wall_s)
+            lcm_pinned.append(lcm_bound(duration_s, pin, keep=csv if i == 0 else None))
+        if unpinned and pin is not None:
+            lcm_free.append(lcm_bound(duration_s, None))
+        lcm_series = np.loadtxt(csv, delimiter=",", skiprows=1)
+    ref = run_bound(cfg, spine=NodeSpine.inprocess(cfg.spine)).series
+    cols = [COLUMNS.index(c) for c in ("x", "z", "q1_true", "q2", "q3", "q4", "tau2", "tau3", "tau4")]
+    diff = float(np.max(np.abs(lcm_series[:, cols] - ref[:, cols]))) if lcm_series.shape == ref.shape \
+        else float("inf")
+    best_in, best_lcm = min(inproc), min(lcm_pinned)
+    return {
+        "bound_sim_s": duration_s, "bound_repeat": repeat,
+        "in_process_bound_wall_s": best_in,
+        "lcm_lockstep_bound_wall_s": best_lcm,
+        "lcm_lockstep_over_in_process": best_in / best_lcm,
+        "lcm_lockstep_us_per_tick_over_in_process": 1e6 * (best_lcm - best_in) / round(duration_s * 1000),
+        "lcm_pinned_cpus_node_robot": list(pin) if pin else None,
+        "lcm_lockstep_unpinned_wall_s": min(lcm_free) if lcm_free else None,
+        "lcm_lockstep_unpinned_over_in_process": best_in / min(lcm_free) if lcm_free else None,
+        "lcm_vs_node_in_process_max_abs_diff": diff,
+        "bound_all_runs_s": {"in_process": inproc, "lcm_lockstep": lcm_pinned, "lcm_unpinned": lcm_free},
+    }
+
+
 def _stats_us(xs: list[float]) -> dict[str, float]:
     xs = sorted(xs)
     return {"median_us": 1e6 * statistics.median(xs), "p90_us": 1e6 * xs[int(0.9 * (len(xs) - 1))],
             "p99_us": 1e6 * xs[int(0.99 * (len(xs) - 1))], "n": len(xs)}
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", type=Path, help="write the results here")
-    ap.add_argument("--ticks", type=int, default=3000, help="lockstep ticks and ping-pongs (default: 3000)")
-    ap.add_argument("--realtime-s", type=float, default=3.0, help="real-time run length, s (default: 3)")
-    ap.add_argument("--role", choices=["ping", "pong"], help=argparse.SUPPRESS)
-    ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    if args.role == "pong":
-        return pong(args.ticks + 100)  # the pinger warms up with 100 extra rounds
-    if args.role == "ping":
-        return ping(args.ticks, args.out)
-
-    import tempfile
-
+def transport_legs(args: argparse.Namespace) -> dict:
+    """Sections 1-3: lockstep round trip, bare LCM ping-pong, real time."""
     import numpy as np
 
     py, me = shlex.quote(sys.executable), shlex.quote(str(Path(__file__).resolve()))
@@ -163,7 +232,7 @@ wait $NODE
     answered = rt["robot_answered"].astype(bool)
     period = rt["node_period"][rt["node_faults"] == 0]  # node ticks while the robot was up and all was well
     period = period[period > 0]
-    result = {
+    return {
         "message_bytes": bare["sizes"],
         "lockstep_node_rtt": node_s,
         "bare_lcm_rtt": bare_s,
@@ -177,9 +246,35 @@ wait $NODE
         "realtime_robot_rate_hz": rt_robot["achieved_rate_hz"],
         "realtime_robot_ticks_without_fresh_command": int((~answered).sum()),
         "realtime_robot_ticks": int(answered.size),
-        "python": platform.python_version(), "machine": platform.machine(),
         "note": "shared 2-core machine; lockstep_ticks_per_s includes start-up and the 2 s idle timeout",
     }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--json", type=Path, help="write the results here")
+    ap.add_argument("--ticks", type=int, default=3000, help="lockstep ticks and ping-pongs (default: 3000)")
+    ap.add_argument("--realtime-s", type=float, default=3.0, help="real-time run length, s (default: 3)")
+    ap.add_argument("--bound-s", type=float, default=5.0, help="bound legs: simulated s (5; 0 skips)")
+    ap.add_argument("--bound-repeat", type=int, default=3, help="bound legs: runs each, best kept (3)")
+    ap.add_argument("--no-unpinned", action="store_true", help="bound legs: skip the unpinned LCM run")
+    ap.add_argument("--only-bound", action="store_true", help="run only the bound legs (section 4)")
+    ap.add_argument("--role", choices=["ping", "pong"], help=argparse.SUPPRESS)
+    ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.role == "pong":
+        return pong(args.ticks + 100)  # the pinger warms up with 100 extra rounds
+    if args.role == "ping":
+        return ping(args.ticks, args.out)
+
+    result: dict = {}
+    if not args.only_bound:
+        result.update(transport_legs(args))
+    if args.bound_s > 0:
+        result.update(bound_legs(args.bound_s, args.bound_repeat, not args.no_unpinned))
+    result.update(python=platform.python_version(), machine=platform.machine(),
+                  load_average=Path("/proc/loadavg").read_text().split()[:3]
+                  if Path("/proc/loadavg").exists() else None)
     for k, v in result.items():
         print(f"{k:44s} {v}")
     if args.json:

@@ -12,7 +12,7 @@ from sparc_quad.robot_side.ports import LcmPort
 from sparc_quad.sim.bench_world import BenchWorld
 from spine_module.buses.base import MotorBusError, MotorFeedback
 from spine_module.buses.lcm import LcmMotorBus
-from spine_module.messages import Fault, TorsoState, channels, codec
+from spine_module.messages import Fault, SpineState, TorsoState, channels, codec
 from spine_module.node import Controllers, LcmNodeIO, NodeConfig, SpineNode
 
 N = 300
@@ -64,3 +64,15 @@ def test_lcm_bus_rejects_malformed_feedback_by_field():
         assert "wrong fingerprint" in str(exc) and "sparc.torso_state_t" in str(exc)
     else:
         raise AssertionError("wrong-fingerprint feedback was accepted")
+
+
+def test_lcm_port_keeps_state_bytes_and_counts_a_malformed_state_when_read():
+    lc = lcm.LCM("memq://")
+    port = LcmPort(lc=lc)
+    good = SpineState(seq=7, q=np.array([0.1, 0.2, 0.3, 0.4]))
+    lc.publish(channels.SPINE_STATE, codec.encode_state(good))
+    lc.publish(channels.SPINE_STATE, codec.encode_torso(TorsoState()))  # wrong type on the state channel
+    port.node_heartbeats()  # the 1 kHz loop's drain: bytes kept, nothing decoded yet
+    assert port._states == [] and len(port._raw_states) == 2
+    assert [s.seq for s in port.states] == [7] and port.rejected == 1
+    np.testing.assert_array_equal(port.states[0].q, good.q)
