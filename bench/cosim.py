@@ -5,7 +5,11 @@ Headline: `in_process_vs_physics_only` = time in `stepSimulation` during the bou
 one bound step from run_bound's profiling hook (perf_counter accumulators, wall time) in a separate profiled
 run. The zero-torque "raw" stepping is context only (the robot collapses, so its contacts differ).
 
-    python bench/cosim.py --json out/bench/cosim.json [--repeat 3]
+    python bench/cosim.py --json out/bench/cosim.json [--repeat 3] [--backend numba|python|auto]
+
+The bound runs the compiled per-step code (`--backend numba`, what `sparc-quad bound` picks for runs of 8 s
+or longer; loading it is a per-process cost that bench/run_cost.py measures); one run with the other backend
+is reported beside it as `context_<backend>_backend_vs_physics_only`.
 
 Three figures, each the best of `--repeat` runs:
 - raw: `stepSimulation` of the model for the same simulated time with zero torques (the robot collapses
@@ -80,13 +84,16 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=10.0)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--no-lcm", action="store_true", help="skip the LCM lockstep leg")
+    ap.add_argument("--backend", choices=["auto", "numba", "python"], default="numba",
+                    help="the bound's per-step code (BoundConfig.backend; default numba, what `bound` runs "
+                         "for 8 s or longer); one run with the other of numba/python is reported as context")
     args = ap.parse_args()
     raws, bounds, physics, nodes, lcms, cpus = [], [], [], [], [], []
     fell = False
     note = "skipped (--no-lcm)"
     for _ in range(args.repeat):
         raws.append(raw_stepping(args.duration))
-        cfg = BoundConfig(duration_s=args.duration)
+        cfg = BoundConfig(duration_s=args.duration, backend=args.backend)
         c0 = time.process_time()
         res = run_bound(cfg)
         cpus.append(time.process_time() - c0)
@@ -101,7 +108,9 @@ def main() -> int:
             if wall is not None:
                 lcms.append(wall)
     profile: dict[str, float] = {}
-    prof_res = run_bound(BoundConfig(duration_s=args.duration), profile=profile)
+    prof_res = run_bound(BoundConfig(duration_s=args.duration, backend=args.backend), profile=profile)
+    other = "python" if prof_res.metrics["gait_backend"] == "numba" else "numba"
+    ctx = run_bound(BoundConfig(duration_s=args.duration, backend=other))
     total = sum(profile.values())
     raw, inproc, phys = min(raws), min(bounds), min(physics)
     node = min(nodes)
@@ -110,6 +119,9 @@ def main() -> int:
         "sim_s": args.duration,
         "repeat": args.repeat,
         "in_process_vs_physics_only": phys / inproc,
+        "backend": {"asked": args.backend, "spine": prof_res.metrics["spine_backend"],
+                    "gait": prof_res.metrics["gait_backend"]},
+        f"context_{other}_backend_vs_physics_only": ctx.metrics["physics_wall_time_s"] / ctx.wall_s,
         "phase_wall_s": {k: profile[k] for k in PROFILE_PHASES},
         "phase_share": {k: profile[k] / total for k in PROFILE_PHASES},
         "profiled_bound_wall_s": prof_res.wall_s,

@@ -74,6 +74,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--spine", choices=["direct", "node"], default="direct",
                    help="direct: the impedance controller called in this process (fastest); node: the spine "
                         "node in this process on the in-process bus (the reference for --lcm)")
+    p.add_argument("--backend", choices=["auto", "numba", "python"], default="auto",
+                   help="per-step code: numba (compiled spine step and bound controller; ~0.7 s CPU to load "
+                        "per process), python (the reference paths), auto (default): numba for runs of "
+                        "8 s or longer")
     p.add_argument("--lcm", action="store_true",
                    help="the spine node is another process (`sparc-quad spine-node --motors lcm`), over LCM; "
                         "lockstep unless --realtime")
@@ -114,6 +118,7 @@ def config_from_args(args: argparse.Namespace):
         friction_compensation=args.friction_comp,
         stop_on_fall=False,
         realtime=args.realtime,
+        backend=args.backend,
     )
 
 

@@ -21,12 +21,9 @@ from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.sim import gait_metrics
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
+from sparc_quad.sim.loop_backend import resolve_backend
 from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
-
-_TAU0 = COLUMNS.index("tau_HL_haa")
-_DQ0 = COLUMNS.index("dq_HL_haa")
-_PH = COLUMNS.index("gait_phase")
 
 
 @dataclass(frozen=True)
@@ -44,6 +41,9 @@ class BoundConfig:
     stop_on_fall: bool = True
     realtime: bool = False  # pace the loop to the wall clock (the robot's real-time mode)
     settle_s: float = 2.0  # metrics skip the start-up (stand, speed ramp) plus this
+    # per-step code: numba (compiled spine step and bound controller) | python (the reference paths) |
+    # auto (numba for runs >= loop_backend.NUMBA_PAYBACK_SIM_S, where it pays for loading the kernels)
+    backend: str = "auto"
 
 
 @dataclass
@@ -65,7 +65,8 @@ class SpineInProcess:
     def __init__(self, cfg: BoundConfig):
         self.drive = make_spine_drive(cfg.spine, rigid=cfg.rigid_spine, friction=cfg.friction_compensation,
                                       variant=cfg.spine_variant, schedule=cfg.spine_schedule,
-                                      rate_hz=cfg.spine_rate_hz, dt_s=cfg.world.dt_s)
+                                      rate_hz=cfg.spine_rate_hz, dt_s=cfg.world.dt_s,
+                                      backend=_SPINE_BACKEND[resolve_backend(cfg.backend, cfg.duration_s)])
         self._q = np.zeros(4)
         self._dq = np.zeros(4)
 
@@ -106,20 +107,18 @@ def variant_of(cfg: BoundConfig) -> str:
     return "rigid" if cfg.rigid_spine else cfg.spine_variant
 
 
-def make_gait(world: QuadrupedWorld, params: BoundParams | SineBoundParams):
+_SPINE_BACKEND = {"numba": "numba", "python": "pinocchio"}
+
+
+def make_gait(world: QuadrupedWorld, params: BoundParams | SineBoundParams, backend: str = "python"):
+    """The leg controller; `backend` "numba" compiles gait B (the sine bound is cheap and stays Python)."""
     if isinstance(params, SineBoundParams):
         return SineBoundController(world, params)
+    if backend == "numba":
+        from sparc_quad.gaits.bound_fast import CompiledBoundController
+
+        return CompiledBoundController(world, params)
     return BoundController(world, params)
-
-
-def _gait_phase_cycles(gait) -> float:
-    if isinstance(gait, SineBoundController):
-        return gait.gait_phase / (2 * math.pi)
-    return gait.phase
-
-
-def _gait_frequency(gait) -> float:
-    return gait.frequency_hz if isinstance(gait, SineBoundController) else gait.p.frequency_hz
 
 
 PROFILE_PHASES = ("read", "spine", "gait", "log", "physics", "other")
@@ -147,7 +146,7 @@ def run_bound(
     world_cfg = replace(cfg.world, lock_spine=True) if variant == "rigid" else cfg.world
     world = QuadrupedWorld(world_cfg)
     spine = spine if spine is not None else SpineInProcess(cfg)
-    gait = make_gait(world, cfg.gait)
+    gait = make_gait(world, cfg.gait, resolve_backend(cfg.backend, cfg.duration_s))
     observe_spine = getattr(gait, "observe_spine", None)
     dt = cfg.world.dt_s
     n = round(cfg.duration_s / dt)
@@ -155,6 +154,24 @@ def run_bound(
     frame_every = round(frame_every_s / dt) if frame_every_s > 0 else 0
     fell, fall_t, first_reason = False, None, None
     legs_order = LEGS
+    pim = world.pos_in_movable
+    leg_cols = [(k, tuple(pim[j] for j in world.leg_idx[k])) for k in legs_order]  # (HAA, HFE, KFE) order
+    if isinstance(gait, SineBoundController):
+        def gait_phase() -> float:
+            return gait.gait_phase / (2 * math.pi)
+
+        def gait_frequency() -> float:
+            return gait.frequency_hz
+    else:
+        def gait_phase() -> float:
+            return gait.phase
+
+        def gait_frequency() -> float:
+            return gait.p.frequency_hz
+
+    def spine_energy() -> float:
+        return getattr(spine, "energy_j", 0.0)
+
     latency = max(0, int(cfg.actuator_latency_steps))
     pipe: collections.deque = collections.deque()
     zero_legs = {k: (0.0, 0.0, 0.0) for k in legs_order}
@@ -186,40 +203,34 @@ def run_bound(
             if latency:  # what the actuators apply now was commanded `latency` steps ago
                 pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
                 tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
+            tau_s = tau_s.tolist() if type(tau_s) is np.ndarray else tau_s  # plain floats: cheaper below
             world.set_torques(tau_s, leg_tau)
             if observe_spine is not None:
                 observe_spine(t, float(spine.task_pose[0]))
-            # log the state the torques were computed from
-            pitch_front = world.q1 + sum(world.q_spine)
-            row = log[i]
-            row[0] = t
-            row[1:4] = world.base_pos
-            row[4:12] = (world.q1, world.dq1, est.q1, est.dq1, est.ddq1, pitch_front, world.roll, world.yaw)
-            row[12:15] = world.q_spine
-            row[15:18] = world.dq_spine
-            row[18:21] = tau_s
-            row[21:24] = spine.task_pose
-            row[24:28] = [world.contact_force[k] > 0.0 for k in legs_order]
-            row[28] = gait.stance_flags["hind"]
-            row[29] = gait.stance_flags["front"]
+            # log the state the torques were computed from: one row, one assignment (no per-field slicing)
+            jdq = world.jdq
+            q_sp, dq_sp = world.q_spine, world.dq_spine
+            cf = world.contact_force
             leg_p = 0.0
             leg_m = 0.0
-            for n_leg, k in enumerate(legs_order):
-                st = world.leg_state(k)
+            taus: list = []
+            dqs: list = []
+            for k, (ia, ib, ic) in leg_cols:
                 ta = leg_tau[k]
-                leg_p += abs(ta[0] * st.dhaa) + abs(ta[1] * st.dhfe) + abs(ta[2] * st.dkfe)
+                a, b, c = jdq[ia], jdq[ib], jdq[ic]
+                leg_p += abs(ta[0] * a) + abs(ta[1] * b) + abs(ta[2] * c)
                 leg_m = max(leg_m, abs(ta[1]), abs(ta[2]))
-                c = 3 * n_leg
-                row[_TAU0 + c: _TAU0 + c + 3] = ta
-                row[_DQ0 + c] = st.dhaa
-                row[_DQ0 + c + 1] = st.dhfe
-                row[_DQ0 + c + 2] = st.dkfe
-            row[30] = leg_p
-            row[31] = sum(abs(a * b) for a, b in zip(tau_s, world.dq_spine, strict=True))
-            row[32] = leg_m
-            row[_PH] = _gait_phase_cycles(gait)
-            row[_PH + 1] = _gait_frequency(gait)
-            row[_PH + 2] = getattr(spine, "energy_j", 0.0)
+                taus += ta
+                dqs += (a, b, c)
+            flags = gait.stance_flags
+            x_task = spine.task_pose
+            log[i] = (t, *world.base_pos, world.q1, world.dq1, est.q1, est.dq1, est.ddq1,
+                      world.q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s, *x_task,
+                      cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+                      flags["hind"], flags["front"], leg_p,
+                      abs(tau_s[0] * dq_sp[0]) + abs(tau_s[1] * dq_sp[1]) + abs(tau_s[2] * dq_sp[2]), leg_m,
+                      *taus, *dqs,
+                      gait_phase(), gait_frequency(), spine_energy())
             if frame_every and i % frame_every == 0 and on_frame is not None:
                 on_frame(world)
             if prof:
@@ -261,6 +272,8 @@ def run_bound(
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
     metrics["spine_driver"] = getattr(drive, "name", type(spine).__name__)
+    metrics["spine_backend"] = getattr(getattr(drive, "drive", drive), "backend", None)
+    metrics["gait_backend"] = "numba" if type(gait).__name__ == "CompiledBoundController" else "python"
     node_states = spine.states_arrays() if hasattr(spine, "states_arrays") else None
     return BoundResult(cfg, metrics, series, wall, frames, node_states)
 

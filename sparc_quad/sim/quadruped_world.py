@@ -54,18 +54,27 @@ class EstimatorOutput:
 class Estimator:
     """Torso estimator emulation: truth -> noise, bias, delay, a first-order filter on q̈1. Seeded."""
 
+    NOISE_BLOCK = 1000  # steps of noise drawn at once
+
     def __init__(self, cfg: ImuConfig, dt: float, rng: np.random.Generator):
         self.cfg, self.dt, self.rng = cfg, dt, rng
         self._buf: collections.deque = collections.deque(maxlen=max(1, cfg.delay_steps + 1))
         self._prev_dq1: float | None = None
         self._acc = 0.0
+        self._noise: list[list[float]] = []
+        self._k = 0
         self._alpha = (
             1.0 - math.exp(-2 * math.pi * cfg.accel_filter_hz * dt) if cfg.accel_filter_hz > 0 else 1.0
         )
 
     def update(self, q1: float, dq1: float) -> EstimatorOutput:
         c = self.cfg
-        n = self.rng.standard_normal(3)
+        k = self._k
+        if k == len(self._noise):  # draw ahead in blocks: the same stream as three draws per step
+            self._noise = self.rng.standard_normal((self.NOISE_BLOCK, 3)).tolist()
+            k = 0
+        n = self._noise[k]
+        self._k = k + 1
         mq = q1 + c.q1_bias_rad + c.q1_noise_rad * n[0]
         mdq = dq1 + c.dq1_bias_rad_s + c.dq1_noise_rad_s * n[1]
         raw_acc = 0.0 if self._prev_dq1 is None else (dq1 - self._prev_dq1) / self.dt
@@ -135,6 +144,7 @@ class QuadrupedWorld:
                 self.joint_index[info[1].decode()] = i
         self.movable = sorted(self.joint_index.values())
         self._pos_in_movable = {j: k for k, j in enumerate(self.movable)}
+        self.pos_in_movable = self._pos_in_movable  # joint index -> its place in jq, jdq and the torques
         # Default velocity motors off: every joint is torque controlled.
         pb.setJointMotorControlArray(
             self.robot, self.movable, pb.VELOCITY_CONTROL, forces=[0.0] * len(self.movable), physicsClientId=c
@@ -166,12 +176,19 @@ class QuadrupedWorld:
         for link in self.foot_links:
             pb.changeDynamics(self.robot, link, lateralFriction=cfg.friction, physicsClientId=c)
         self.spine_idx = [self.joint_index[n] for n in self.meta["spine_joints"]]
+        self._spine_pos = tuple(self._pos_in_movable[j] for j in self.spine_idx)  # q2, q3, q4 in jq
         self.leg_idx = {
             k: (self.joint_index[v["haa"]], self.joint_index[v["hfe"]], self.joint_index[v["kfe"]])
             for k, v in self.legs.items()
         }
+        # set_torques lists spine then legs (HAA, HFE, KFE each) then a 0 for any other joint;
+        # _tau_order[p] = where in that list movable joint p is
+        self._leg_keys = tuple(self.leg_idx)
+        listed = [*self.spine_idx, *(j for k in self._leg_keys for j in self.leg_idx[k])]
+        self._tau_order = [listed.index(j) if j in listed else len(listed) for j in self.movable]
         dyn = pb.getDynamicsInfo(self.robot, -1, physicsClientId=c)
         self._base_inertial_pos = np.array(dyn[3])
+        self._base_inertial_xyz = tuple(float(v) for v in dyn[3])  # plain floats for the per-step read
         self.total_mass = sum(
             pb.getDynamicsInfo(self.robot, i, physicsClientId=c)[0]
             for i in range(-1, pb.getNumJoints(self.robot, physicsClientId=c))
@@ -279,7 +296,7 @@ class QuadrupedWorld:
         com, quat = pb.getBasePositionAndOrientation(self.robot, physicsClientId=c)
         v, w = pb.getBaseVelocity(self.robot, physicsClientId=c)
         rot = pb.getMatrixFromQuaternion(quat)
-        bx, by, bz = self._base_inertial_pos
+        bx, by, bz = self._base_inertial_xyz
         # frame origin = com - R * local inertial offset; velocity likewise (omega x r)
         rx = rot[0] * bx + rot[1] * by + rot[2] * bz
         ry = rot[3] * bx + rot[4] * by + rot[5] * bz
@@ -298,22 +315,23 @@ class QuadrupedWorld:
         self.roll = math.atan2(rot[7], rot[8])
         self.yaw = math.atan2(rot[3], rot[0])
         js = pb.getJointStates(self.robot, self.movable, physicsClientId=c)
-        self.jq = [s[0] for s in js]
-        self.jdq = [s[1] for s in js]
-        pim = self._pos_in_movable
-        self.q_spine = [self.jq[pim[j]] for j in self.spine_idx]
-        self.dq_spine = [self.jdq[pim[j]] for j in self.spine_idx]
+        self.jq = jq = [s[0] for s in js]
+        self.jdq = jdq = [s[1] for s in js]
+        a, b, d = self._spine_pos
+        self.q_spine = [jq[a], jq[b], jq[d]]
+        self.dq_spine = [jdq[a], jdq[b], jdq[d]]
         contacts = pb.getContactPoints(bodyA=self.robot, bodyB=self.ground, physicsClientId=c)
-        self.contact_force = dict.fromkeys(self.legs, 0.0)
+        self.contact_force = force = dict.fromkeys(self.legs, 0.0)
         self.other_contact = False
         self.body_contact = False
+        feet = self.foot_links
         for cp in contacts:
-            key = self.foot_links.get(cp[3])
+            key = feet.get(cp[3])
             if key is None:
                 self.other_contact = True
                 self.body_contact |= cp[3] in self.body_links
             else:
-                self.contact_force[key] += cp[9]
+                force[key] += cp[9]
 
     def leg_state(self, key: str) -> LegState:
         pim = self._pos_in_movable
@@ -336,13 +354,13 @@ class QuadrupedWorld:
     # ---- actuation -----------------------------------------------------------------------------------
     def set_torques(self, spine_tau, leg_tau: dict[str, tuple[float, float, float]]) -> None:
         """Torques for this step: spine (q2, q3, q4) and per leg (HAA, HFE, KFE), N*m."""
-        pim = self._pos_in_movable
-        tau = self._tau
-        for j, t in zip(self.spine_idx, spine_tau, strict=True):
-            tau[pim[j]] = float(t)
-        for key, idx in self.leg_idx.items():
-            for j, t in zip(idx, leg_tau[key], strict=True):
-                tau[pim[j]] = float(t)
+        a, b, c = spine_tau
+        vals = [float(a), float(b), float(c)]
+        for key in self._leg_keys:
+            ha, hf, kf = leg_tau[key]
+            vals += (float(ha), float(hf), float(kf))
+        vals.append(0.0)
+        self._tau = [vals[k] for k in self._tau_order]
 
     @property
     def applied_torques(self) -> list[float]:

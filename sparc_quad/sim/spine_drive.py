@@ -112,25 +112,28 @@ class PassiveSpine:
 
 
 class ImpedanceSpine:
-    """The SPARC impedance controller (spine_module.control) driving the spine in process."""
+    """The SPARC impedance controller (spine_module.control) driving the spine in process.
+
+    backend: "pinocchio" (the reference path; no numba loaded) or "numba" (the compiled step, equal to the
+    reference to ~1e-12, ~15x cheaper per step but ~0.7 s of CPU to load per process); a bound run picks
+    it with `sim.loop_backend.resolve_backend`.
+    """
 
     name = "impedance"
     actuated = True
 
-    def __init__(self, gains: SpineGains, friction: bool = False):
+    def __init__(self, gains: SpineGains, friction: bool = False, backend: str = "pinocchio"):
         from spine_module.control import ImpedanceController, StribeckFriction
         from spine_module.model import SpineModel
 
-        # the pinocchio path: importing numba and loading the cached compiled step costs ~1 s of CPU per
-        # process, more than it saves over a simulated run shorter than ~40 s (~25 us per 1 kHz step)
         self.ctrl = ImpedanceController(
-            SpineModel(), friction=StribeckFriction.nominal() if friction else None, backend="pinocchio"
+            SpineModel(), friction=StribeckFriction.nominal() if friction else None, backend=backend
         )
+        self.backend = self.ctrl.backend
         self.ctrl.set_gains(k=gains.k, d=gains.d)
         self.ctrl.set_target(x_d=tuple(P.X_EQUILIBRIUM), dx_d=(0.0, 0.0, 0.0), ddx_d=(0.0, 0.0, 0.0))
-        self.tau = np.zeros(3)
-        self.x = np.zeros(3)
-        self.dx = np.zeros(3)
+        out = self.ctrl.out  # the controller fills the same output arrays every step: no copies here
+        self.tau, self.x, self.dx = out.tau, out.x, out.dx
         self.ok = True
 
     def set_gains(self, k=None, d=None, x_d=None) -> None:
@@ -139,11 +142,7 @@ class ImpedanceSpine:
             self.ctrl.set_target(x_d=x_d)
 
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
-        out = self.ctrl.step(q, dq, ddq1=ddq1)
-        self.tau[:] = out.tau
-        self.x[:] = out.x
-        self.dx[:] = out.dx
-        self.ok = bool(out.ok)
+        self.ok = self.ctrl.step(q, dq, ddq1).ok
         return self.tau
 
 
@@ -204,10 +203,12 @@ class ScheduledDrive:
 
 def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = False,
                      variant: str | None = None, schedule: SpineSchedule | None = None,
-                     rate_hz: float | None = None, dt_s: float = P.CONTROL_PERIOD_S):
+                     rate_hz: float | None = None, dt_s: float = P.CONTROL_PERIOD_S,
+                     backend: str = "pinocchio"):
     """The drive a bound uses. `variant` is one of SPINE_VARIANTS (`rigid=True` means "rigid").
     `schedule` applies to the impedance and passive springs, `rate_hz` (a controller rate below 1/dt_s)
-    to the motor-rendered impedance only: a physical spring acts continuously."""
+    to the motor-rendered impedance only: a physical spring acts continuously. `backend` is the impedance
+    controller's ("pinocchio" or "numba")."""
     variant = "rigid" if rigid else (variant or "impedance")
     if variant not in SPINE_VARIANTS:
         raise ValueError(f"spine variant must be one of {', '.join(SPINE_VARIANTS)}, got {variant!r}")
@@ -215,10 +216,11 @@ def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = Fa
         return LockedSpine()
     if variant == "rigid-impedance":
         stiff = SpineGains(k=tuple(P.K_RIGID_IMPEDANCE), d=tuple(P.D_RIGID_IMPEDANCE))
-        drive = ImpedanceSpine(stiff, friction=friction)
+        drive = ImpedanceSpine(stiff, friction=friction, backend=backend)
         drive.name = "rigid-impedance"
         return drive
-    drive = PassiveSpine(gains) if variant == "passive" else ImpedanceSpine(gains, friction=friction)
+    drive = PassiveSpine(gains) if variant == "passive" else ImpedanceSpine(gains, friction=friction,
+                                                                            backend=backend)
     hold = 1 if not rate_hz or variant == "passive" else max(1, round(1.0 / (rate_hz * dt_s)))
     if schedule is None and hold == 1:
         return drive
