@@ -10,6 +10,7 @@ from __future__ import annotations
 import collections
 import json
 import math
+import operator
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
@@ -155,7 +156,9 @@ def run_bound(
     fell, fall_t, first_reason = False, None, None
     legs_order = LEGS
     pim = world.pos_in_movable
-    leg_cols = [(k, tuple(pim[j] for j in world.leg_idx[k])) for k in legs_order]  # (HAA, HFE, KFE) order
+    if tuple(legs_order) != ("HL", "HR", "FL", "FR"):
+        raise ValueError(f"the log row lists the legs HL, HR, FL, FR, got {legs_order}")
+    leg_dq = operator.itemgetter(*(pim[j] for k in legs_order for j in world.leg_idx[k]))  # HAA, HFE, KFE
     if isinstance(gait, SineBoundController):
         def gait_phase() -> float:
             return gait.gait_phase / (2 * math.pi)
@@ -207,29 +210,16 @@ def run_bound(
             world.set_torques(tau_s, leg_tau)
             if observe_spine is not None:
                 observe_spine(t, float(spine.task_pose[0]))
-            # log the state the torques were computed from: one row, one assignment (no per-field slicing)
-            jdq = world.jdq
-            q_sp, dq_sp = world.q_spine, world.dq_spine
+            # log the state the torques were computed from: one row, one assignment; the power and peak
+            # columns are filled from the logged torques and rates after the loop (_derived_columns)
+            q_sp = world.q_spine
             cf = world.contact_force
-            leg_p = 0.0
-            leg_m = 0.0
-            taus: list = []
-            dqs: list = []
-            for k, (ia, ib, ic) in leg_cols:
-                ta = leg_tau[k]
-                a, b, c = jdq[ia], jdq[ib], jdq[ic]
-                leg_p += abs(ta[0] * a) + abs(ta[1] * b) + abs(ta[2] * c)
-                leg_m = max(leg_m, abs(ta[1]), abs(ta[2]))
-                taus += ta
-                dqs += (a, b, c)
             flags = gait.stance_flags
-            x_task = spine.task_pose
             log[i] = (t, *world.base_pos, world.q1, world.dq1, est.q1, est.dq1, est.ddq1,
-                      world.q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s, *x_task,
-                      cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
-                      flags["hind"], flags["front"], leg_p,
-                      abs(tau_s[0] * dq_sp[0]) + abs(tau_s[1] * dq_sp[1]) + abs(tau_s[2] * dq_sp[2]), leg_m,
-                      *taus, *dqs,
+                      world.q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *world.dq_spine, *tau_s,
+                      *spine.task_pose, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+                      flags["hind"], flags["front"], 0.0, 0.0, 0.0,
+                      *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(world.jdq),
                       gait_phase(), gait_frequency(), spine_energy())
             if frame_every and i % frame_every == 0 and on_frame is not None:
                 on_frame(world)
@@ -262,6 +252,7 @@ def run_bound(
         world.close()
         spine.close()
     series = log[:i]
+    _derived_columns(series)
     # metrics end at the first fall: what a fallen robot does afterwards (stop_on_fall=False) is no gait
     measured = series[: max(1, round(fall_t / dt))] if fell and fall_t is not None else series
     metrics = compute_metrics(measured, cfg, mass, fell, fall_t, first_reason)
@@ -276,6 +267,30 @@ def run_bound(
     metrics["gait_backend"] = "numba" if type(gait).__name__ == "CompiledBoundController" else "python"
     node_states = spine.states_arrays() if hasattr(spine, "states_arrays") else None
     return BoundResult(cfg, metrics, series, wall, frames, node_states)
+
+
+_TAU0 = COLUMNS.index("tau_HL_haa")
+_DQ0 = COLUMNS.index("dq_HL_haa")
+_LEG_P, _SPINE_P, _LEG_M = (COLUMNS.index(c) for c in ("leg_power_w", "spine_power_w", "leg_tau_max"))
+_SPINE_TAU, _SPINE_DQ = COLUMNS.index("tau2"), COLUMNS.index("dq2")
+
+
+def _derived_columns(s: np.ndarray) -> None:
+    """Leg power sum |tau dq| over the 12 leg joints, spine power over q2..q4, max |leg torque| of HFE and
+    KFE: from the logged torques and rates, column-wise, in the order the per-step sums were taken."""
+    leg_p = np.zeros(len(s))
+    leg_m = np.zeros(len(s))
+    for leg in range(4):
+        c = 3 * leg
+        ta, tb, tc = (s[:, _TAU0 + c + j] for j in range(3))
+        leg_p += (np.abs(ta * s[:, _DQ0 + c]) + np.abs(tb * s[:, _DQ0 + c + 1])
+                  + np.abs(tc * s[:, _DQ0 + c + 2]))
+        leg_m = np.maximum(np.maximum(leg_m, np.abs(tb)), np.abs(tc))
+    s[:, _LEG_P] = leg_p
+    s[:, _LEG_M] = leg_m
+    tau, dq = s[:, _SPINE_TAU:_SPINE_TAU + 3], s[:, _SPINE_DQ:_SPINE_DQ + 3]
+    s[:, _SPINE_P] = (np.abs(tau[:, 0] * dq[:, 0]) + np.abs(tau[:, 1] * dq[:, 1])
+                      + np.abs(tau[:, 2] * dq[:, 2]))
 
 
 def startup_s(cfg: BoundConfig) -> float:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import collections
 import json
 import math
+import operator
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -186,6 +187,7 @@ class QuadrupedWorld:
         self._leg_keys = tuple(self.leg_idx)
         listed = [*self.spine_idx, *(j for k in self._leg_keys for j in self.leg_idx[k])]
         self._tau_order = [listed.index(j) if j in listed else len(listed) for j in self.movable]
+        self._reorder = operator.itemgetter(*self._tau_order)
         dyn = pb.getDynamicsInfo(self.robot, -1, physicsClientId=c)
         self._base_inertial_pos = np.array(dyn[3])
         self._base_inertial_xyz = tuple(float(v) for v in dyn[3])  # plain floats for the per-step read
@@ -354,13 +356,13 @@ class QuadrupedWorld:
     # ---- actuation -----------------------------------------------------------------------------------
     def set_torques(self, spine_tau, leg_tau: dict[str, tuple[float, float, float]]) -> None:
         """Torques for this step: spine (q2, q3, q4) and per leg (HAA, HFE, KFE), N*m."""
-        a, b, c = spine_tau
-        vals = [float(a), float(b), float(c)]
+        a, b, c = spine_tau  # pybullet converts each value to a double (as float() did)
+        vals = [a, b, c]
         for key in self._leg_keys:
             ha, hf, kf = leg_tau[key]
-            vals += (float(ha), float(hf), float(kf))
+            vals += (ha, hf, kf)
         vals.append(0.0)
-        self._tau = [vals[k] for k in self._tau_order]
+        self._tau = self._reorder(vals)
 
     @property
     def applied_torques(self) -> list[float]:
