@@ -65,11 +65,20 @@ class NodeSpine:
         return spine
 
     def __call__(self, est, q_spine, dq_spine, t_sim: float) -> np.ndarray:
+        self.begin(est, q_spine, dq_spine, t_sim)
+        return self.finish()
+
+    def begin(self, est, q_spine, dq_spine, t_sim: float) -> None:
+        """First half of a tick: publish it to the node. Whatever needs only this tick's state (here the
+        task kinematics; in `run_bound` the gait) runs before `finish`, while a node in another process
+        computes the answer."""
         self.plant.set(est, q_spine, dq_spine)
         self.robot.publish_tick()
-        # needs only this tick's state: done while a node in another process computes the answer
         self.kinematics.update(np.concatenate(([est.q1], self.plant.q)),
                                np.concatenate(([est.dq1], self.plant.dq)))
+
+    def finish(self) -> np.ndarray:
+        """Second half: take the node's answer, let the motors apply it; the spine torques (N*m)."""
         self.robot.finish_tick(*self.robot.answer(self.lockstep))
         return self.plant.tau
 

@@ -149,6 +149,7 @@ def run_bound(
     spine = spine if spine is not None else SpineInProcess(cfg)
     gait = make_gait(world, cfg.gait, resolve_backend(cfg.backend, cfg.duration_s))
     observe_spine = getattr(gait, "observe_spine", None)
+    begin = getattr(spine, "begin", None)  # split spines (`NodeSpine`): begin, gait, then spine.finish()
     dt = cfg.world.dt_s
     n = round(cfg.duration_s / dt)
     log = np.zeros((n, len(COLUMNS)))
@@ -195,7 +196,10 @@ def run_bound(
             if prof:
                 c1 = clock()
                 profile["read"] += c1 - c0
-            tau_s = spine(est, world.q_spine, world.dq_spine, t)
+            if begin is None:
+                tau_s = spine(est, world.q_spine, world.dq_spine, t)
+            else:  # a spine node in another process: publish the tick; the gait runs while it answers
+                begin(est, world.q_spine, world.dq_spine, t)
             if prof:
                 c0 = clock()
                 profile["spine"] += c0 - c1
@@ -203,6 +207,12 @@ def run_bound(
             if prof:
                 c1 = clock()
                 profile["gait"] += c1 - c0
+            if begin is not None:
+                tau_s = spine.finish()  # the same numbers as spine(...): the gait does not read the spine
+                if prof:
+                    c0 = c1
+                    c1 = clock()
+                    profile["spine"] += c1 - c0
             if latency:  # what the actuators apply now was commanded `latency` steps ago
                 pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
                 tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
