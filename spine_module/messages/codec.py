@@ -369,7 +369,35 @@ def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> He
                      seq=m.seq)
 
 
+_FEEDBACK = _LAYOUTS[motor_feedback_t]
+_F_UTIME, _F_SEQ, _F_ANGLE, _F_VELOCITY, _F_TORQUE, _F_TEMPERATURE, _F_MODE, _F_FAULT, _F_LOAD_CELL = (
+    _FEEDBACK.index(f)[0] for f in motor_feedback_t.__slots__)
+_FEEDBACK_BOUNDS = _FlatBounds(motor_feedback_t, FEEDBACK_RANGES, {**_HEADER, "mode": (0.0, 2.0)})
+_FEEDBACK_STRUCT = _FEEDBACK.parts[0][0] if _FEEDBACK.fixed and len(_FEEDBACK.parts) == 1 else None
+if _FEEDBACK_STRUCT is None or tuple(motor_feedback_t.__slots__) != (
+        "utime", "seq", "angle", "velocity", "torque", "temperature", "mode", "fault", "load_cell"):
+    raise RuntimeError("motor_feedback_t changed: update codec's motor feedback fast paths")
+
+
 def decode_motor_feedback(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -> MotorFeedback:
+    """One struct call and one bounds check (every tick of a node over LCM, on the lockstep round trip);
+    anything else goes field by field through `decode_motor_feedback_checked`, which names the problem."""
+    vals = _FEEDBACK.unpack(data)
+    if vals is not None:
+        v = np.array(vals, dtype=float)
+        if _FEEDBACK_BOUNDS.ok(v):
+            return MotorFeedback(q=v[_F_ANGLE:_F_ANGLE + 3], dq=v[_F_VELOCITY:_F_VELOCITY + 3],
+                                 tau=v[_F_TORQUE:_F_TORQUE + 3],
+                                 temperature_c=v[_F_TEMPERATURE:_F_TEMPERATURE + 3],
+                                 mode=np.array(vals[_F_MODE:_F_MODE + 3], dtype=np.int32),
+                                 fault=np.array(vals[_F_FAULT:_F_FAULT + 3], dtype=np.int32),
+                                 load_cell_n=v[_F_LOAD_CELL:_F_LOAD_CELL + 2], stamp_s=_s(vals[_F_UTIME]),
+                                 seq=vals[_F_SEQ])
+    return decode_motor_feedback_checked(data, channel)
+
+
+def decode_motor_feedback_checked(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -> MotorFeedback:
+    """`decode_motor_feedback` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, motor_feedback_t)
     _check_header(channel, m)
     FEEDBACK_CHECK.check(channel, FEEDBACK_CHECK.values(m))
@@ -382,8 +410,33 @@ def decode_motor_feedback(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -
                          stamp_s=_s(m.utime), seq=m.seq)
 
 
+_MCMD = _LAYOUTS[motor_command_t]
+_M_UTIME, _M_SEQ, _M_FEEDBACK_SEQ, _M_ENABLE, _M_POSITION, _M_VELOCITY, _M_KP, _M_KD, _M_TORQUE = (
+    _MCMD.index(f)[0] for f in motor_command_t.__slots__)
+_MCMD_BOUNDS = _FlatBounds(motor_command_t, MOTOR_COMMAND_RANGES, _HEADER)
+_MCMD_STRUCT = _MCMD.parts[0][0] if _MCMD.fixed and len(_MCMD.parts) == 1 else None
+if _MCMD_STRUCT is None or tuple(motor_command_t.__slots__) != (
+        "utime", "seq", "feedback_seq", "enable", "position", "velocity", "kp", "kd", "torque"):
+    raise RuntimeError("motor_command_t changed: update codec's motor command fast paths")
+
+
 def decode_motor_command(data: bytes, channel: str = channels.MOTOR_COMMAND) -> tuple[MotorCommand, int]:
-    """Returns (command, feedback_seq it answers; -1 if none)."""
+    """Returns (command, feedback_seq it answers; -1 if none). One struct call and one bounds check (the
+    robot's end of every lockstep round trip); anything else goes through `decode_motor_command_checked`."""
+    vals = _MCMD.unpack(data)
+    if vals is not None:
+        v = np.array(vals, dtype=float)
+        if _MCMD_BOUNDS.ok(v):
+            return MotorCommand(tau_ff=v[_M_TORQUE:_M_TORQUE + 3], q_des=v[_M_POSITION:_M_POSITION + 3],
+                                dq_des=v[_M_VELOCITY:_M_VELOCITY + 3], kp=v[_M_KP:_M_KP + 3],
+                                kd=v[_M_KD:_M_KD + 3], enable=vals[_M_ENABLE] != 0,
+                                stamp_s=_s(vals[_M_UTIME]), seq=vals[_M_SEQ]), vals[_M_FEEDBACK_SEQ]
+    return decode_motor_command_checked(data, channel)
+
+
+def decode_motor_command_checked(data: bytes, channel: str = channels.MOTOR_COMMAND
+                                 ) -> tuple[MotorCommand, int]:
+    """`decode_motor_command` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, motor_command_t)
     _check_header(channel, m)
     MOTOR_COMMAND_CHECK.check(channel, MOTOR_COMMAND_CHECK.values(m))
@@ -462,6 +515,23 @@ def encode_heartbeat(h: Heartbeat) -> bytes:
 
 
 def encode_motor_feedback(f: MotorFeedback) -> bytes:
+    """The robot's every tick: one struct call when the fields are 1-D arrays of the right lengths (float
+    vectors, integer mode/fault); anything else takes the general path (same bytes, or its error)."""
+    try:
+        q, dq, tau, temp = f.q.tolist(), f.dq.tolist(), f.tau.tolist(), f.temperature_c.tolist()
+        mode, fault, cell = f.mode.tolist(), f.fault.tolist(), f.load_cell_n.tolist()
+        if (len(q) == 3 and len(dq) == 3 and len(tau) == 3 and len(temp) == 3 and len(mode) == 3
+                and len(fault) == 3 and len(cell) == 2 and f.mode.dtype.kind in "iu"
+                and f.fault.dtype.kind in "iu"):
+            return _FEEDBACK.fingerprint + _FEEDBACK_STRUCT.pack(
+                _us(f.stamp_s), int(f.seq), *q, *dq, *tau, *temp, *mode, *fault, *cell)
+    except (AttributeError, TypeError, struct.error):
+        pass
+    return encode_motor_feedback_checked(f)
+
+
+def encode_motor_feedback_checked(f: MotorFeedback) -> bytes:
+    """`encode_motor_feedback` through the generated object: the reference."""
     m = _blank(motor_feedback_t)
     m.utime, m.seq = _us(f.stamp_s), int(f.seq)
     m.angle, m.velocity, m.torque, m.temperature = _l(f.q), _l(f.dq), _l(f.tau), _l(f.temperature_c)
@@ -472,6 +542,21 @@ def encode_motor_feedback(f: MotorFeedback) -> bytes:
 
 
 def encode_motor_command(c: MotorCommand, feedback_seq: int = -1) -> bytes:
+    """The node's every tick over LCM: one struct call when the arrays are 1-D of length 3; anything else
+    takes the general path (same bytes, or its error)."""
+    try:
+        pos, vel, kp, kd, tau = c.q_des.tolist(), c.dq_des.tolist(), c.kp.tolist(), c.kd.tolist(), \
+            c.tau_ff.tolist()
+        if len(pos) == 3 and len(vel) == 3 and len(kp) == 3 and len(kd) == 3 and len(tau) == 3:
+            return _MCMD.fingerprint + _MCMD_STRUCT.pack(_us(c.stamp_s), int(c.seq), int(feedback_seq),
+                                                         1 if c.enable else 0, *pos, *vel, *kp, *kd, *tau)
+    except (AttributeError, TypeError, struct.error):
+        pass
+    return encode_motor_command_checked(c, feedback_seq)
+
+
+def encode_motor_command_checked(c: MotorCommand, feedback_seq: int = -1) -> bytes:
+    """`encode_motor_command` through the generated object: the reference."""
     m = _blank(motor_command_t)
     m.utime, m.seq, m.feedback_seq, m.enable = _us(c.stamp_s), int(c.seq), int(feedback_seq), bool(c.enable)
     m.position, m.velocity, m.kp, m.kd, m.torque = _l(c.q_des), _l(c.dq_des), _l(c.kp), _l(c.kd), _l(c.tau_ff)
