@@ -90,3 +90,17 @@ def test_command_rejections_are_named_as_before():
             decode(raw.encode())
     with pytest.raises(MessageError, match="fingerprint"):
         codec.decode_motor_command(codec.encode_motor_feedback(_feedback(RNG)))
+
+
+def test_torso_encode_fast_path_equals_the_reference():
+    from spine_module.messages import TorsoState
+
+    for _ in range(300):
+        q = RNG.normal(size=4)
+        t = TorsoState(q1=float(RNG.uniform(-3, 3)), dq1=float(RNG.uniform(-50, 50)),
+                       ddq1=float(RNG.uniform(-5000, 5000)), ddq1_valid=bool(RNG.integers(0, 2)),
+                       quat=q / np.linalg.norm(q), omega=RNG.uniform(-50, 50, 3),
+                       stamp_s=float(RNG.integers(0, 10**9)) * 1e-6, seq=int(RNG.integers(0, 10**9)))
+        assert codec.encode_torso(t) == codec.encode_torso_checked(t)
+    t.quat = [1.0, 0.0, 0.0, 0.0]  # a list: the general path
+    assert codec.encode_torso(t) == codec.encode_torso_checked(t)

@@ -13,12 +13,13 @@ from spine_module.messages.motor import MotorCommand, MotorFeedback
 
 
 @functools.lru_cache(maxsize=8)
-def _frame_limits(lsb: tuple[float, float, float], ranges: Ranges) -> tuple[np.ndarray, np.ndarray]:
-    """Per-row LSB and range of the (q, dq, tau) block, as columns (read-only)."""
+def _frame_limits(lsb: tuple[float, float, float], ranges: Ranges) -> tuple[np.ndarray, ...]:
+    """Per-row LSB, lower and upper range of the (q, dq, tau) block, as columns (read-only)."""
     step = np.array(lsb, dtype=float).reshape(3, 1)
     top = np.array([ranges.position_max, ranges.velocity_max, ranges.torque_max], dtype=float).reshape(3, 1)
-    step.flags.writeable = top.flags.writeable = False
-    return step, top
+    bottom = -top
+    step.flags.writeable = top.flags.writeable = bottom.flags.writeable = False
+    return step, bottom, top
 
 
 def as_frame(fb: MotorFeedback, quantise: bool = True, ranges: Ranges = DEFAULT_RANGES) -> MotorFeedback:
@@ -26,13 +27,13 @@ def as_frame(fb: MotorFeedback, quantise: bool = True, ranges: Ranges = DEFAULT_
     clip it to what a type-2 frame can carry (`ranges`, the CAN protocol's). One (3, 3) block for q, dq
     and tau (the same element-wise arithmetic as per vector; `fb.q`/`dq`/`tau` become its rows)."""
     s = P.SENSORS
-    step, top = _frame_limits((s.position_lsb_rad, s.velocity_lsb_rad_s, s.torque_lsb_nm), ranges)
+    step, bottom, top = _frame_limits((s.position_lsb_rad, s.velocity_lsb_rad_s, s.torque_lsb_nm), ranges)
     a = np.array((fb.q, fb.dq, fb.tau), dtype=float)
     if a.shape != (3, 3):
         raise ValueError(f"motor feedback q, dq, tau must be 3 values each, got shape {a.shape}")
     if quantise:
-        np.multiply(np.round(a / step), step, out=a)
-    np.clip(a, -top, top, out=a)
+        np.multiply(np.rint(a / step), step, out=a)
+    np.minimum(np.maximum(a, bottom, out=a), top, out=a)  # = np.clip, without its Python wrapper
     fb.q, fb.dq, fb.tau = a[0], a[1], a[2]
     return fb
 
@@ -62,6 +63,6 @@ class MotorModel:
         if c is None or not c.enable or latched or stale:
             self.tau[:] = 0.0
         else:
-            self.tau[:] = c.torque(q, dq)
-            np.clip(self.tau, -self.torque_limit_nm, self.torque_limit_nm, out=self.tau)
+            np.minimum(np.maximum(c.torque(q, dq), -self.torque_limit_nm), self.torque_limit_nm,
+                       out=self.tau)  # = np.clip, without its Python wrapper
         return self.tau

@@ -114,9 +114,12 @@ class QuadPlant:
     def torso(self) -> TorsoState:
         return self._torso
 
+    _TEMPERATURE_C = np.full(3, 30.0)
+    _RUNNING = np.full(3, 2, dtype=np.int32)
+
     def feedback(self) -> MotorFeedback:
         return MotorFeedback(q=self.q.copy(), dq=self.dq.copy(), tau=self.tau.copy(),
-                             temperature_c=np.full(3, 30.0), mode=np.full(3, 2, dtype=np.int32))
+                             temperature_c=self._TEMPERATURE_C.copy(), mode=self._RUNNING.copy())
 
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         return self.q, self.dq

@@ -491,7 +491,28 @@ def _l(a, n: int = 3) -> list[float]:
     return out
 
 
+_TORSO_STRUCT = _TORSO.parts[0][0] if _TORSO.fixed and len(_TORSO.parts) == 1 else None
+if _TORSO_STRUCT is None or tuple(torso_state_t.__slots__) != (
+        "utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega"):
+    raise RuntimeError("torso_state_t changed: update codec.encode_torso's fast path")
+
+
 def encode_torso(t: TorsoState) -> bytes:
+    """The robot's every tick: one struct call when quat and omega are 1-D arrays of 4 and 3 values;
+    anything else takes the general path (same bytes, or its error)."""
+    try:
+        quat, omega = t.quat.tolist(), t.omega.tolist()
+        if len(quat) == 4 and len(omega) == 3:
+            return _TORSO.fingerprint + _TORSO_STRUCT.pack(
+                _us(t.stamp_s), int(t.seq), float(t.q1), float(t.dq1), float(t.ddq1),
+                1 if t.ddq1_valid else 0, *quat, *omega)
+    except (AttributeError, TypeError, struct.error):
+        pass
+    return encode_torso_checked(t)
+
+
+def encode_torso_checked(t: TorsoState) -> bytes:
+    """`encode_torso` through the generated object: the reference."""
     m = _blank(torso_state_t)
     m.utime, m.seq = _us(t.stamp_s), int(t.seq)
     m.q1, m.dq1, m.ddq1, m.ddq1_valid = float(t.q1), float(t.dq1), float(t.ddq1), bool(t.ddq1_valid)
