@@ -4,6 +4,7 @@ writes lcm-gen's bytes."""
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -130,3 +131,14 @@ def test_encode_state_refuses_a_wrong_length_array() -> None:
     s = SpineState(q=np.zeros(5), dq=np.zeros(3))  # 8 values in all, like 4 + 4: still an error
     with pytest.raises(ValueError, match="expected 4 values"):
         codec.encode_state(s)
+
+
+def test_encode_state_of_lists_and_int_arrays_is_the_same_message() -> None:
+    s = _state(np.random.default_rng(8))
+    ref = codec.encode_state(s)
+    s.q, s.tau_cmd, s.temperature = s.q.tolist(), tuple(s.tau_cmd.tolist()), s.temperature.tolist()
+    assert codec.encode_state(s) == ref
+    s.q = np.array([1, 2, 3, 4])
+    s2 = copy.copy(s)
+    s2.q = np.array([1.0, 2.0, 3.0, 4.0])
+    assert codec.encode_state(s) == codec.encode_state(s2)

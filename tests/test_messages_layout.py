@@ -44,15 +44,32 @@ def test_layout_bytes_equal_lcm_gen(cls: type) -> None:
         m = _random(cls, rng)
         data = m.encode()
         assert layout.encode(m) == data
-        if layout.fixed:
-            back = layout.decode(data)
-            ref = cls.decode(data)
-            for name in cls.__slots__:
-                assert getattr(back, name) == getattr(ref, name), name
-                assert type(getattr(back, name)) is type(getattr(ref, name)), name
-            assert layout.decode(data[:-1]) is None  # anything but one exact message: lcm-gen's path
-            assert layout.decode(data + b"\0") is None
-            assert layout.decode(b"\0" * len(data)) is None
+        # fixed-size and string-bearing types alike
+        back = layout.decode(data)
+        ref = cls.decode(data)
+        for name in cls.__slots__:
+            assert getattr(back, name) == getattr(ref, name), name
+            assert type(getattr(back, name)) is type(getattr(ref, name)), name
+        assert layout.decode(data[:-1]) is None  # anything but one exact message: lcm-gen's path
+        assert layout.decode(data + b"\0") is None
+        assert layout.decode(b"\0" * len(data)) is None
+
+
+def test_strings_decode_as_lcm_gen_does() -> None:
+    """Odd strings (invalid UTF-8, a last byte that is not NUL) come out as lcm-gen reads them; a length
+    that does not fit (or 0) is left to lcm-gen's path."""
+    cls = codec.heartbeat_t
+    layout = LAYOUTS[cls]
+    m = cls()
+    m.sender = "robot"
+    data = bytearray(m.encode())
+    data[8 + 16 + 4] = 0xFF  # invalid UTF-8 first byte
+    data[8 + 16 + 4 + 5] = ord("x")  # the terminating NUL
+    assert layout.decode(bytes(data)).sender == cls.decode(bytes(data)).sender == "\ufffdobot"
+    for n in (0, 7, 1000):
+        bad = bytearray(data)
+        bad[8 + 16:8 + 20] = n.to_bytes(4, "big")
+        assert layout.unpack(bytes(bad)) is None
 
 
 def test_layout_refuses_what_it_cannot_express() -> None:

@@ -21,6 +21,7 @@ class InProcessLink:
         self._command: tuple[MotorCommand, int] | None = None
         self.dropped_feedback = 0  # feedback overwritten before the node read it
         self.dropped_commands = 0
+        self.waiting = 0  # threads blocked on _cv (changed under it): a send with nobody waiting skips notify
         self.robot = RobotEnd(self)
         self.closed = False
 
@@ -37,14 +38,19 @@ class RobotEnd:
             if link._feedback is not None:
                 link.dropped_feedback += 1
             link._feedback = fb.copy()
-            link._cv.notify_all()
+            if link.waiting:
+                link._cv.notify_all()
 
     def take_command(self, timeout_s: float | None = 0.0) -> tuple[MotorCommand, int] | None:
         """Newest command not yet taken and the feedback seq it answers (-1 if none), or None."""
         link = self._link
         with link._cv:
             if link._command is None and timeout_s:
-                link._cv.wait_for(lambda: link._command is not None, timeout_s)
+                link.waiting += 1
+                try:
+                    link._cv.wait_for(lambda: link._command is not None, timeout_s)
+                finally:
+                    link.waiting -= 1
             out, link._command = link._command, None
             return out
 
@@ -64,18 +70,23 @@ class InProcessBus(MotorBus):
             if link._command is not None:
                 link.dropped_commands += 1
             link._command = (command.copy(), self._last_feedback_seq)
-            link._cv.notify_all()
+            if link.waiting:
+                link._cv.notify_all()
 
     def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
         link = self.link
         with link._cv:
             if link._feedback is None and (timeout_s is None or timeout_s > 0):
                 deadline = None if timeout_s is None else time.monotonic() + timeout_s
-                while link._feedback is None:
-                    remaining = None if deadline is None else deadline - time.monotonic()
-                    if remaining is not None and remaining <= 0:
-                        break
-                    link._cv.wait(remaining)
+                link.waiting += 1
+                try:
+                    while link._feedback is None:
+                        remaining = None if deadline is None else deadline - time.monotonic()
+                        if remaining is not None and remaining <= 0:
+                            break
+                        link._cv.wait(remaining)
+                finally:
+                    link.waiting -= 1
             fb, link._feedback = link._feedback, None
         if fb is not None:
             self._last_feedback_seq = fb.seq

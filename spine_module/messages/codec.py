@@ -215,9 +215,10 @@ class _FlatBounds:
             for i, ri in enumerate(r if isinstance(r, list) else [r] * k):
                 self.lo[a + i], self.hi[a + i], self.nan_ok[a + i] = ri.lo, ri.hi, ri.nan_ok
         self._nan_ok = self.nan_ok if self.nan_ok.any() else None
+        self.n = n
 
     def ok(self, v: np.ndarray) -> bool:
-        return bool(_in_bounds(v, self.lo, self.hi, self._nan_ok).all())
+        return np.count_nonzero(_in_bounds(v, self.lo, self.hi, self._nan_ok)) == self.n  # ~1 us under .all()
 
 
 def _blank(cls: type):
@@ -588,13 +589,32 @@ _STATE = _LAYOUTS[spine_state_t]
 if tuple(spine_state_t.__slots__) != (
         "utime", "seq", "mode", "requested_mode", "faults", "rejected", "q", "dq", "tau_cmd", "tau_est", "x",
         "dx", "gain_scale", "load_cell", "temperature", "period", "jitter_max", "compute", "feedback_seq",
-        "command_seq", "torso_seq"):
+        "command_seq", "torso_seq") or [st is None for st, _, _ in _STATE.parts] != [False, True, False]:
     raise RuntimeError("spine_state_t changed: update codec.encode_state's field order")
+_STATE_HEAD, _STATE_TAIL = _STATE.parts[0][0], _STATE.parts[2][0]  # the runs before and after `rejected`
+_U32 = struct.Struct(">I")
 
 
 def encode_state(s: SpineState) -> bytes:
-    """One list of values in spine_state_t's slot order (checked at import), packed by the precompiled
-    layout: no generated object in between."""
+    """spine_state_t's bytes straight from the fields (slot order checked at import), with the layout's
+    precompiled structs: no generated object in between."""
+    try:  # the node's own state: float64 arrays of the right lengths, one tolist each
+        q, dq, tau_cmd, tau_est = s.q.tolist(), s.dq.tolist(), s.tau_cmd.tolist(), s.tau_est.tolist()
+        x, dx, load_cell = s.x.tolist(), s.dx.tolist(), s.load_cell.tolist()
+        temperature = s.temperature.tolist()
+        if (len(q) == 4 and len(dq) == 4 and len(tau_cmd) == 3 and len(tau_est) == 3 and len(x) == 3
+                and len(dx) == 3 and len(load_cell) == 2 and len(temperature) == 3):
+            rejected = s.rejected.encode("utf-8")
+            return b"".join((
+                _STATE.fingerprint,
+                _STATE_HEAD.pack(_us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode),
+                                 int(s.faults)),
+                _U32.pack(len(rejected) + 1), rejected, b"\0",
+                _STATE_TAIL.pack(*q, *dq, *tau_cmd, *tau_est, *x, *dx, float(s.gain_scale), *load_cell,
+                                 *temperature, float(s.period), float(s.jitter_max), float(s.compute),
+                                 int(s.feedback_seq), int(s.command_seq), int(s.torso_seq))))
+    except (AttributeError, TypeError, struct.error):  # lists, nested or odd values: the checked path
+        pass
     return _STATE.pack([
         _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode), int(s.faults), s.rejected,
         *_l(s.q, 4), *_l(s.dq, 4), *_l(s.tau_cmd), *_l(s.tau_est), *_l(s.x), *_l(s.dx), float(s.gain_scale),

@@ -58,12 +58,34 @@ class Layout:
         raise KeyError(f"{self.cls.__name__} has no field {name!r}")
 
     def unpack(self, data: bytes) -> tuple | None:
-        """Every value of a fixed-size message in slot order, arrays flattened (booleans as the raw
-        int8), or None unless `data` is exactly one message of this type."""
+        """Every value of a message in slot order, arrays flattened (booleans as the raw int8, strings
+        decoded as lcm-gen does), or None unless `data` is exactly one well-formed message of this type
+        (then lcm-gen's path runs and names the problem)."""
         st = self._struct
-        if st is None or len(data) != self.size or data[:8] != self.fingerprint:
+        if st is not None:
+            if len(data) != self.size or data[:8] != self.fingerprint:
+                return None
+            return st.unpack_from(data, 8)
+        if data[:8] != self.fingerprint:
             return None
-        return st.unpack_from(data, 8)
+        out: list = []
+        off, end = 8, len(data)
+        for st, _lo, _hi in self.parts:
+            if st is None:  # u32 length (with the terminating NUL), bytes, NUL
+                if off + 4 > end:
+                    return None
+                n = _U32.unpack_from(data, off)[0]
+                off += 4
+                if n < 1 or off + n > end:
+                    return None
+                out.append(bytes(data[off:off + n - 1]).decode("utf-8", "replace"))  # as lcm-gen: [:-1]
+                off += n
+            else:
+                if off + st.size > end:
+                    return None
+                out += st.unpack_from(data, off)
+                off += st.size
+        return tuple(out) if off == end else None
 
     def decode(self, data: bytes) -> Any | None:
         """The generated message object for `data`, or None unless `data` is exactly one message of this

@@ -17,8 +17,8 @@ def _zeros(n: int) -> np.ndarray:
 
 
 def _c(v):
-    """An array's own copy; anything else as it is."""
-    return v.copy() if isinstance(v, np.ndarray) else v
+    """An array's (or list's) own copy; anything else (a tuple, a number) as it is."""
+    return v.copy() if isinstance(v, (np.ndarray, list)) else v
 
 
 @dataclass
@@ -46,8 +46,12 @@ class MotorCommand:
     def copy(self) -> MotorCommand:
         """A copy sharing no array with this one: what a transport hands over (the in-process bus copies
         every command; one constructor call, not `copy.deepcopy`)."""
-        return MotorCommand(_c(self.tau_ff), _c(self.q_des), _c(self.dq_des), _c(self.kp), _c(self.kd),
-                            self.enable, self.stamp_s, self.seq)
+        try:  # numpy arrays (what every producer sends)
+            return MotorCommand(self.tau_ff.copy(), self.q_des.copy(), self.dq_des.copy(), self.kp.copy(),
+                                self.kd.copy(), self.enable, self.stamp_s, self.seq)
+        except AttributeError:  # a tuple somewhere
+            return MotorCommand(_c(self.tau_ff), _c(self.q_des), _c(self.dq_des), _c(self.kp), _c(self.kd),
+                                self.enable, self.stamp_s, self.seq)
 
     @classmethod
     def zero(cls, n: int = 3, enable: bool = False) -> MotorCommand:
@@ -72,5 +76,10 @@ class MotorFeedback:
 
     def copy(self) -> MotorFeedback:
         """A copy sharing no array with this one (see `MotorCommand.copy`)."""
-        return MotorFeedback(_c(self.q), _c(self.dq), _c(self.tau), _c(self.temperature_c), _c(self.mode),
-                             _c(self.fault), _c(self.load_cell_n), self.stamp_s, self.seq)
+        try:
+            return MotorFeedback(self.q.copy(), self.dq.copy(), self.tau.copy(), self.temperature_c.copy(),
+                                 self.mode.copy(), self.fault.copy(), self.load_cell_n.copy(), self.stamp_s,
+                                 self.seq)
+        except AttributeError:
+            return MotorFeedback(_c(self.q), _c(self.dq), _c(self.tau), _c(self.temperature_c), _c(self.mode),
+                                 _c(self.fault), _c(self.load_cell_n), self.stamp_s, self.seq)

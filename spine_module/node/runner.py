@@ -33,6 +33,8 @@ from spine_module.node.io import NodeIO
 log = logging.getLogger("spine_module.node")
 
 _BAD_COMMAND = int(Fault.BAD_COMMAND)
+_ZEROS3 = np.zeros(3)  # q_des, dq_des, kp, kd of the node's torque-only commands: shared, so read-only
+_ZEROS3.flags.writeable = False
 _BAD_BY_CHANNEL = {ch.TORSO_STATE: int(Fault.BAD_TORSO), ch.SPINE_COMMAND: _BAD_COMMAND,
                    ch.HEARTBEAT_ROBOT: _BAD_COMMAND, ch.MOTOR_FEEDBACK: int(Fault.BAD_FEEDBACK)}
 _NOISY = Fault.TORQUE_CLAMPED | Fault.JOINT_LIMIT
@@ -152,8 +154,15 @@ class SpineNode:
             self._ratelog("bus", now, logging.ERROR, "motor bus error: %s", exc)
 
     def _accept_feedback(self, fb: MotorFeedback, now: float) -> None:
-        q, dq = _finite3(fb.q), _finite3(fb.dq)  # plain floats: ~1 us, not ~10
-        if q is None or dq is None or _finite3(fb.tau) is None:
+        try:  # numpy feedback (every bus): three tolists and one C-level finiteness pass
+            q, dq, tau = fb.q.tolist(), fb.dq.tolist(), fb.tau.tolist()
+            if not (len(q) == 3 and len(dq) == 3 and len(tau) == 3 and all(map(math.isfinite, q + dq + tau))):
+                q = None
+        except (AttributeError, TypeError):  # lists, tuples, nested arrays: one by one
+            q, dq = _finite3(fb.q), _finite3(fb.dq)
+            if _finite3(fb.tau) is None:
+                q = None
+        if q is None or dq is None:
             self._flag_bad(Fault.BAD_FEEDBACK, now)
             self.rejected = f"{ch.MOTOR_FEEDBACK}: non-finite or mis-shaped q/dq/tau"
             self.rejected_count += 1
@@ -161,7 +170,8 @@ class SpineNode:
             return
         self.fb = fb
         self._fb_q, self._fb_dq = q, dq
-        self._fb_motor_fault = any(np.asarray(fb.fault).tolist())
+        fault = fb.fault
+        self._fb_motor_fault = any((fault if type(fault) is np.ndarray else np.asarray(fault)).tolist())
         self._rx_feedback = now
 
     def _flag_bad(self, bit: Fault | int, now: float) -> None:
@@ -262,7 +272,7 @@ class SpineNode:
             x = np.full(3, np.nan)
             dx = np.full(3, np.nan)
 
-        cmd = MotorCommand(tau_ff=tau, enable=enable, stamp_s=now, seq=self.seq)
+        cmd = MotorCommand(tau, _ZEROS3, _ZEROS3, _ZEROS3, _ZEROS3, enable, now, self.seq)  # torque-only
         self.last_command = cmd
         try:
             self.bus.send(cmd)
@@ -310,9 +320,7 @@ class SpineNode:
         try:
             # gains and target change only with the command's numbers, the soft-start scale or the
             # controller: set them then, not every tick (a stream of equal commands costs one compare)
-            key = [scale, default_gains, self._ramp_t0, *_floats(c.x_d)]
-            if not default_gains:
-                key += (*_floats(c.k), *_floats(c.d), *_floats(c.dx_d), *_floats(c.ddx_d))
+            key = _gains_key(c, scale, default_gains, self._ramp_t0)
             if ctrl is not self._set_ctrl or key != self._set_for:
                 self._set_ctrl = None
                 self._set_gains_and_target(ctrl, c, scale, default_gains, q, dq)
@@ -322,7 +330,9 @@ class SpineNode:
             self._set_ctrl = None
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller raised: %r", exc)
             return [0.0, 0.0, 0.0], np.full(3, np.nan), np.full(3, np.nan), False
-        x, dx = np.array(out.x, dtype=float), np.array(out.dx, dtype=float)
+        x, dx = out.x, out.dx
+        x = x.copy() if type(x) is np.ndarray and x.dtype == np.float64 else np.array(x, dtype=float)
+        dx = dx.copy() if type(dx) is np.ndarray and dx.dtype == np.float64 else np.array(dx, dtype=float)
         if not out.ok:
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller not ok: %s",
                           out.error)
@@ -425,6 +435,19 @@ def _finite3(a: object) -> list[float] | None:
     except (TypeError, ValueError):
         pass
     return None
+
+
+def _gains_key(c: SpineCommand, scale: float, default_gains: bool, ramp_t0: float | None) -> list:
+    """Everything the controller's gains and target are computed from, as plain numbers."""
+    try:  # decoded commands hold float64 arrays: one tolist each
+        key = [scale, default_gains, ramp_t0, *c.x_d.tolist()]
+        if not default_gains:
+            key += (*c.k.tolist(), *c.d.tolist(), *c.dx_d.tolist(), *c.ddx_d.tolist())
+    except AttributeError:
+        key = [scale, default_gains, ramp_t0, *_floats(c.x_d)]
+        if not default_gains:
+            key += (*_floats(c.k), *_floats(c.d), *_floats(c.dx_d), *_floats(c.ddx_d))
+    return key
 
 
 _FAULTS: dict[int, Fault] = {}
