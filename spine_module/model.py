@@ -81,6 +81,17 @@ class SpineModel:
         data.x[2] = math.atan2(R[0, 2], R[0, 0])
         np.dot(data.J_act, dq_act, out=data.dx)
 
+    def update_pose(self, data: SpineData, q: np.ndarray) -> None:
+        """Fill data.x only (placements, no Jacobians): the same numbers as `update_kinematics` gives x, at
+        a third of its cost, for callers that log the pose (the robot side of a co-simulation)."""
+        kin_model, kin, fid = self.kin_model, data.kin, self.ee_frame
+        pin.forwardKinematics(kin_model, kin, q[1:])
+        oMf = pin.updateFramePlacement(kin_model, kin, fid)
+        t, R = oMf.translation, oMf.rotation
+        data.x[0] = t[0]
+        data.x[1] = t[2]
+        data.x[2] = math.atan2(R[0, 2], R[0, 0])
+
     def task_pose(self, q: np.ndarray, data: SpineData | None = None) -> np.ndarray:
         """Task pose (x m, z m, theta rad) of the end effector in the hind-body frame."""
         data = data or self.create_data()

@@ -114,12 +114,16 @@ class QuadPlant:
     def torso(self) -> TorsoState:
         return self._torso
 
+    # per-tick constants of the frame, copied (not built: np.full/np.zeros cost more than a copy)
     _TEMPERATURE_C = np.full(3, 30.0)
     _RUNNING = np.full(3, 2, dtype=np.int32)
+    _NO_FAULT = np.zeros(3, dtype=np.int32)
+    _NO_LOAD_CELL = np.full(2, np.nan)
 
     def feedback(self) -> MotorFeedback:
         return MotorFeedback(q=self.q.copy(), dq=self.dq.copy(), tau=self.tau.copy(),
-                             temperature_c=self._TEMPERATURE_C.copy(), mode=self._RUNNING.copy())
+                             temperature_c=self._TEMPERATURE_C.copy(), mode=self._RUNNING.copy(),
+                             fault=self._NO_FAULT.copy(), load_cell_n=self._NO_LOAD_CELL.copy())
 
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         return self.q, self.dq

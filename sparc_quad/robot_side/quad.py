@@ -46,6 +46,7 @@ class NodeSpine:
                                config if config is not None else RobotConfig(name="quad-robot"), cosim)
         self.kinematics = TaskKinematics()
         self.x = self.kinematics.x
+        self._q = np.zeros(4)
         self._final_states: list[SpineState] | None = None
 
     @classmethod
@@ -74,8 +75,9 @@ class NodeSpine:
         computes the answer."""
         self.plant.set(est, q_spine, dq_spine)
         self.robot.publish_tick()
-        self.kinematics.update(np.concatenate(([est.q1], self.plant.q)),
-                               np.concatenate(([est.dq1], self.plant.dq)))
+        self._q[0] = est.q1
+        self._q[1:] = self.plant.q
+        self.kinematics.model.update_pose(self.kinematics.data, self._q)  # x only: what is logged
 
     def finish(self) -> np.ndarray:
         """Second half: take the node's answer, let the motors apply it; the spine torques (N*m)."""

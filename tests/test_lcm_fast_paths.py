@@ -1,5 +1,6 @@
-"""The motor feedback/command fast paths (one struct call, one bounds check) against the field-by-field
-reference paths: same bytes out, same objects back, and the same rejections, on random and edge values."""
+"""The LCM path's fast paths against their references: the motor feedback/command and torso codecs
+(one struct call, one bounds check) give the same bytes, objects and rejections; `update_pose` gives
+`update_kinematics`'s x exactly."""
 
 from __future__ import annotations
 
@@ -104,3 +105,15 @@ def test_torso_encode_fast_path_equals_the_reference():
         assert codec.encode_torso(t) == codec.encode_torso_checked(t)
     t.quat = [1.0, 0.0, 0.0, 0.0]  # a list: the general path
     assert codec.encode_torso(t) == codec.encode_torso_checked(t)
+
+
+def test_update_pose_gives_update_kinematics_x_exactly():
+    from spine_module.model import SpineModel
+
+    model = SpineModel()
+    full, pose = model.create_data(), model.create_data()
+    for _ in range(1000):
+        q = RNG.uniform(-1.2, 1.2, 4)
+        model.update_kinematics(full, q, RNG.uniform(-5, 5, 4))
+        model.update_pose(pose, q)
+        np.testing.assert_array_equal(pose.x, full.x)
