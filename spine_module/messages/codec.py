@@ -218,7 +218,11 @@ class _FlatBounds:
         self.n = n
 
     def ok(self, v: np.ndarray) -> bool:
-        return np.count_nonzero(_in_bounds(v, self.lo, self.hi, self._nan_ok)) == self.n  # ~1 us under .all()
+        ok = v >= self.lo  # fresh arrays, as _in_bounds
+        ok &= v <= self.hi
+        if self._nan_ok is not None:
+            ok |= np.isnan(v) & self._nan_ok
+        return all(ok.tolist())  # a C-level pass over Python bools: ~0.6 us under ndarray.all()
 
 
 def _blank(cls: type):

@@ -78,10 +78,13 @@ class Inbox:
 
     def take(self) -> tuple:
         """(torso, command, heartbeat, reset requested, rejects) since the last take; None if none."""
-        out = (self.torso, self.command, self.heartbeat, self.reset_requested, list(self.rejects))
+        rejects = self.rejects
+        taken = list(rejects) if rejects else []  # a fresh list: the deque is cleared below
+        out = (self.torso, self.command, self.heartbeat, self.reset_requested, taken)
         self.torso = self.command = self.heartbeat = None
         self.reset_requested = False
-        self.rejects.clear()
+        if rejects:
+            rejects.clear()
         return out
 
 

@@ -339,7 +339,11 @@ class SpineNode:
             return [0.0, 0.0, 0.0], x, dx, False
         tau = np.asarray(out.tau, dtype=float).tolist()
         if not default_gains:
-            tau = [a + b for a, b in zip(tau, _floats(c.tau_ff), strict=True)]
+            ff = _floats(c.tau_ff)
+            if len(tau) == 3 == len(ff):
+                tau = [tau[0] + ff[0], tau[1] + ff[1], tau[2] + ff[2]]
+            else:
+                tau = [a + b for a, b in zip(tau, ff, strict=True)]
         return tau, x, dx, True
 
     def _set_gains_and_target(self, ctrl, c: SpineCommand, scale: float, default_gains: bool, q: np.ndarray,
