@@ -6,7 +6,9 @@ import argparse
 import json
 import logging
 import math
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from sparc_quad.cli.args import (
@@ -149,9 +151,23 @@ def run(args: argparse.Namespace) -> int:
         from sparc_quad.robot_side.quad import NodeSpine
 
         spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation)
-    with atomic_dir(args.out) as tmp:  # --out keeps its previous result until this one is complete
-        result = run_bound(cfg, spine=spine, video=args.video)
-        paths = moved(write_outputs(result, tmp, plots=not args.no_plots), tmp, args.out)
+    # Ctrl-C sets a flag that the loop and the steps below check, so KeyboardInterrupt is raised in Python
+    # code: raised inside a compiled extension's call it was, rarely, lost or reported twice (exit 0 or
+    # death by SIGINT instead of 130; seen with the numba kernels loaded, ~1 run in 25 under load).
+    # --lcm keeps Python's default handler: Ctrl-C must also break a wait for the node.
+    stop = threading.Event()
+    old_handler = None if args.lcm else signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
+    try:
+        with atomic_dir(args.out) as tmp:  # --out keeps its previous result until this one is complete
+            result = run_bound(cfg, spine=spine, video=args.video, stop=stop.is_set)
+            if stop.is_set():
+                raise KeyboardInterrupt
+            paths = moved(write_outputs(result, tmp, plots=not args.no_plots), tmp, args.out)
+            if stop.is_set():
+                raise KeyboardInterrupt
+    finally:
+        if old_handler is not None:
+            signal.signal(signal.SIGINT, old_handler)
     m = result.metrics
     summary = {k: m.get(k) for k in ("fell", "fall_time_s", "fall_reason", "mean_speed_m_s", "cot_pos",
                                       "cost_of_transport", "stride_frequency_hz", "stride_length_m",

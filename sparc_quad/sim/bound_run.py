@@ -22,7 +22,7 @@ from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.sim import gait_metrics
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
-from sparc_quad.sim.loop_backend import resolve_backend
+from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
 
@@ -132,6 +132,7 @@ def run_bound(
     frame_every_s: float = 0.0,
     video: bool = False,
     profile: dict[str, float] | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> BoundResult:
     """Simulate `cfg.duration_s` of bounding. `spine(est, q_spine, dq_spine, t) -> tau (3,)` defaults to
     the in-process controller. `on_frame(world)` is called every `frame_every_s`; `video` collects frames
@@ -139,15 +140,19 @@ def run_bound(
     (time.perf_counter) per phase of each step: read (world.estimate), spine, gait, log (torques sent,
     leg states read, log row), physics (world.step: stepSimulation + state refresh), other (fall
     check); when None the loop takes no
-    timestamps."""
+    timestamps. `stop()`, when given, is asked before each step; True raises KeyboardInterrupt there (the
+    CLI's Ctrl-C: the exception is raised in this loop, never inside an extension's call)."""
     frames: list = []
     if video:
         on_frame, frame_every_s = (lambda w: frames.append(w.render())), 1.0 / VIDEO_FPS
     variant = variant_of(cfg)
     world_cfg = replace(cfg.world, lock_spine=True) if variant == "rigid" else cfg.world
+    backend = resolve_backend(cfg.backend, cfg.duration_s)
+    if backend == "numba":
+        load_compiled()
     world = QuadrupedWorld(world_cfg)
     spine = spine if spine is not None else SpineInProcess(cfg)
-    gait = make_gait(world, cfg.gait, resolve_backend(cfg.backend, cfg.duration_s))
+    gait = make_gait(world, cfg.gait, backend)
     observe_spine = getattr(gait, "observe_spine", None)
     begin = getattr(spine, "begin", None)  # split spines (`NodeSpine`): begin, gait, then spine.finish()
     dt = cfg.world.dt_s
@@ -189,6 +194,8 @@ def run_bound(
     i = 0
     try:
         for i in range(n):
+            if stop is not None and stop():
+                raise KeyboardInterrupt
             if prof:
                 c0 = clock()
             t = world.t

@@ -9,6 +9,7 @@ over seconds of contacts, so a long run's trajectory is the same bound, not the 
 from __future__ import annotations
 
 import importlib.util
+import signal
 
 BACKENDS = ("auto", "numba", "python")
 # "auto" compiles only runs at least this long (simulated s). Measured on this project's 2-core machine
@@ -27,3 +28,20 @@ def resolve_backend(backend: str, duration_s: float) -> str:
     if duration_s >= NUMBA_PAYBACK_SIM_S and importlib.util.find_spec("numba") is not None:
         return "numba"
     return "python"
+
+
+def load_compiled() -> None:
+    """Import numba and the cached kernels with SIGINT and SIGTERM blocked in this thread, then unblock
+    them: a signal that arrives meanwhile is delivered after the load, and the thread the load starts
+    inherits the block, so these signals always reach Python's handler on the main thread. A kernel that
+    cannot load is left to the callers' own checks."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if hasattr(signal, "pthread_sigmask") else None
+    try:
+        import sparc_quad.gaits.bound_compiled  # noqa: F401
+        import spine_module.control.compiled  # noqa: F401
+    except Exception:  # ImportError or a numba failure: the controllers name it when they need it
+        pass
+    finally:
+        if old is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
