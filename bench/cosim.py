@@ -18,14 +18,16 @@ Three figures, each the best of `--repeat` runs:
 - in process: the whole bound (estimator, impedance controller, leg controller, logging, stepping).
 - node in process: the same bound with the spine node ticked in this process (in-process bus);
 - LCM lockstep: `sparc-quad bound --lcm` and `sparc-quad spine-node --motors lcm --clock lockstep` as two
-  processes on UDP multicast inside a private network namespace (skipped where one cannot be made); its
-  figure is the bound's own wall time as the robot process measured it.
+  processes on UDP multicast inside a private network namespace (skipped where one cannot be made), pinned
+  to two CPUs; its figure is the bound's own wall time as the robot process measured it. The issue-11
+  ratio against the in-process bound is `bench/lcm_loop.py`'s `lcm_lockstep_over_in_process`.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import shlex
 import shutil
 import subprocess
@@ -49,13 +51,16 @@ def lcm_lockstep(duration_s: float) -> tuple[float | None, str]:
     if shutil.which("unshare") is None or shutil.which("ip") is None:
         return None, "no unshare/ip here"
     py = shlex.quote(sys.executable)
+    cpus = sorted(os.sched_getaffinity(0))  # node and robot on two CPUs, as bench/lcm_loop.py (see there)
+    pin_node, pin_robot = ((f"taskset -c {cpus[-1]} ", f"taskset -c {cpus[0]} ")
+                           if len(cpus) > 1 and shutil.which("taskset") else ("", ""))
     with tempfile.TemporaryDirectory() as tmp:
         out = shlex.quote(tmp)
         script = (f"set -e\n{NETNS_SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}\n"
-                  f"{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 "
+                  f"{pin_node}{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 "
                   f"> {out}/node.out 2> {out}/node.err &\nNODE=$!\n"
-                  f"{py} -m sparc_quad bound --lcm --duration {duration_s} --out {out} > {out}/robot.out "
-                  f"2> {out}/robot.err\nwait $NODE\n")
+                  f"{pin_robot}{py} -m sparc_quad bound --lcm --no-plots --duration {duration_s} --out {out} "
+                  f"> {out}/robot.out 2> {out}/robot.err\nwait $NODE\n")
         for prefix in (("unshare", "-rn"), ("unshare", "-n")):
             r = subprocess.run([*prefix, "sh", "-c", script], capture_output=True, text=True, timeout=900)
             metrics = Path(tmp) / "metrics.json"
