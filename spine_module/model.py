@@ -23,6 +23,14 @@ from spine_module.urdf import spine_urdf
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 # x, z (linear) and pitch about y (angular) are rows 0, 2, 4 of a 6-D spatial quantity: a [0::2] slice
 TASK_ROWS = slice(0, 6, 2)
+
+
+def _write_pose(x: np.ndarray, oMf: pin.SE3) -> None:
+    """Task pose (x m, z m, pitch rad) of an end-effector placement, written into `x`."""
+    t, R = oMf.translation, oMf.rotation
+    x[0] = t[0]
+    x[1] = t[2]
+    x[2] = math.atan2(R[0, 2], R[0, 0])
 N_ACT = len(P.ACTUATED_JOINTS)
 
 
@@ -72,13 +80,9 @@ class SpineModel:
         q_act, dq_act = q[1:], dq[1:]
         pin.forwardKinematics(kin_model, kin, q_act, dq_act, data.zero_act)
         pin.computeJointJacobians(kin_model, kin)
-        oMf = pin.updateFramePlacement(kin_model, kin, fid)
+        _write_pose(data.x, pin.updateFramePlacement(kin_model, kin, fid))
         data.J_act[:] = pin.getFrameJacobian(kin_model, kin, fid, _LWA)[TASK_ROWS]
         data.jdot_qdot[:] = pin.getFrameClassicalAcceleration(kin_model, kin, fid, _LWA).vector[TASK_ROWS]
-        t, R = oMf.translation, oMf.rotation
-        data.x[0] = t[0]
-        data.x[1] = t[2]
-        data.x[2] = math.atan2(R[0, 2], R[0, 0])
         np.dot(data.J_act, dq_act, out=data.dx)
 
     def update_pose(self, data: SpineData, q: np.ndarray) -> None:
@@ -86,11 +90,7 @@ class SpineModel:
         a third of its cost, for callers that log the pose (the robot side of a co-simulation)."""
         kin_model, kin, fid = self.kin_model, data.kin, self.ee_frame
         pin.forwardKinematics(kin_model, kin, q[1:])
-        oMf = pin.updateFramePlacement(kin_model, kin, fid)
-        t, R = oMf.translation, oMf.rotation
-        data.x[0] = t[0]
-        data.x[1] = t[2]
-        data.x[2] = math.atan2(R[0, 2], R[0, 0])
+        _write_pose(data.x, pin.updateFramePlacement(kin_model, kin, fid))
 
     def task_pose(self, q: np.ndarray, data: SpineData | None = None) -> np.ndarray:
         """Task pose (x m, z m, theta rad) of the end effector in the hind-body frame."""

@@ -208,8 +208,15 @@ def clamp_torque(tau: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]
     return np.array(out).reshape(tau.shape), np.array(sat, dtype=bool).reshape(tau.shape)
 
 
+_NO_SAT3 = (False, False, False)
+
+
 def clamp_torque_list(tau: list[float], limit: float) -> tuple[list[float], list[bool]]:
     """`clamp_torque` on plain floats (the node's 1 kHz path: three numbers, no numpy temporaries)."""
+    if len(tau) == 3:  # the usual tick: three finite torques inside the limit (NaN fails the comparisons)
+        a, b, c = tau
+        if -limit <= a <= limit and -limit <= b <= limit and -limit <= c <= limit:
+            return [a, b, c], list(_NO_SAT3)
     out, sat = [], []
     for t in tau:
         if not math.isfinite(t):
@@ -242,6 +249,13 @@ def joint_limit_damping(q: np.ndarray, dq: np.ndarray, lower: np.ndarray, upper:
 def joint_limit_damping_list(q: list[float], dq: list[float], lower: list[float], upper: list[float],
                              margin: float, c: float) -> tuple[list[float], list[bool]]:
     """`joint_limit_damping` on plain floats (the node's 1 kHz path)."""
+    if margin > 0 and len(q) == 3 == len(lower) == len(upper) == len(dq):
+        # the usual tick: every joint clear of its margin (the same float expressions as below give depth 0;
+        # NaN fails the comparisons and takes the full path)
+        if ((lower[0] + margin) <= q[0] <= (upper[0] - margin)
+                and (lower[1] + margin) <= q[1] <= (upper[1] - margin)
+                and (lower[2] + margin) <= q[2] <= (upper[2] - margin)):
+            return [-c * 0.0 * dq[0], -c * 0.0 * dq[1], -c * 0.0 * dq[2]], list(_NO_SAT3)
     extra, active = [], []
     for qi, dqi, lo, hi in zip(q, dq, lower, upper, strict=True):
         depth_hi = min(1.0, max(0.0, (qi - (hi - margin)) / margin))

@@ -116,3 +116,33 @@ def test_torso_stale_never_energises_a_disabled_spine():
     assert v.mode == Mode.DISABLED and not v.enable and v.faults & Fault.TORSO_STALE
     _, v = supervise(SafetyState(), 1.0, rx, Mode.JOINT_TORQUE, False, CFG)
     assert v.mode == Mode.DAMPING and v.enable
+
+
+def test_three_joint_fast_paths_equal_the_general_loop() -> None:
+    """clamp_torque_list and joint_limit_damping_list return early for the usual tick (three values, all
+    inside); one joint at a time takes the general loop, which must agree bit for bit, NaN included."""
+    import math as _m
+
+    import numpy as _np
+
+    from spine_module.safety import clamp_torque_list, joint_limit_damping_list
+
+    rng = _np.random.default_rng(7)
+    lower, upper, margin, c = [-1.0, -0.5, -2.0], [1.0, 0.8, 0.5], 0.1, 3.0
+    specials = [_m.nan, _m.inf, -_m.inf, -0.0]
+    for trial in range(3000):
+        tau = rng.uniform(-12, 12, 3).tolist()
+        q = [rng.uniform(lo - 0.2, hi + 0.2) for lo, hi in zip(lower, upper, strict=True)]
+        dq = rng.normal(0, 1, 3).tolist()
+        if trial % 10 == 0:
+            tau[trial % 3] = specials[trial % 4]
+            q[(trial + 1) % 3] = specials[(trial + 1) % 4]
+        out, sat = clamp_torque_list(tau, 10.0)
+        one = [clamp_torque_list([t], 10.0) for t in tau]
+        assert [o[0][0] for o in one] == out
+        assert [o[1][0] for o in one] == list(sat)
+        extra, near = joint_limit_damping_list(q, dq, lower, upper, margin, c)
+        one = [joint_limit_damping_list([q[i]], [dq[i]], [lower[i]], [upper[i]], margin, c) for i in range(3)]
+        assert list(near) == [o[1][0] for o in one]
+        assert _np.array_equal(_np.array(extra), _np.array([o[0][0] for o in one]), equal_nan=True)
+        assert [_m.copysign(1, v) for v in extra] == [_m.copysign(1, o[0][0]) for o in one]

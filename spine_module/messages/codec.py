@@ -218,11 +218,8 @@ class _FlatBounds:
         self.n = n
 
     def ok(self, v: np.ndarray) -> bool:
-        ok = v >= self.lo  # fresh arrays, as _in_bounds
-        ok &= v <= self.hi
-        if self._nan_ok is not None:
-            ok |= np.isnan(v) & self._nan_ok
-        return all(ok.tolist())  # a C-level pass over Python bools: ~0.6 us under ndarray.all()
+        # all() over Python bools is a C-level pass: ~0.6 us under ndarray.all()
+        return all(_in_bounds(v, self.lo, self.hi, self._nan_ok).tolist())
 
 
 def _blank(cls: type):

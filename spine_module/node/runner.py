@@ -114,11 +114,6 @@ class SpineNode:
         self._set_for: list = []
         self._lower = np.asarray(self.cfg.safety.lower, dtype=float).tolist()
         self._upper = np.asarray(self.cfg.safety.upper, dtype=float).tolist()
-        margin = self.cfg.safety.limit_margin
-        # (lo + margin, hi - margin) per joint: the same float expressions `joint_limit_damping_list` compares
-        # with, so a joint inside them is exactly one it would not damp (margin <= 0: always ask it)
-        self._inside = (([lo + margin for lo in self._lower], [hi - margin for hi in self._upper])
-                        if margin > 0 and len(self._lower) == 3 == len(self._upper) else (None, None))
 
     @property
     def safety(self) -> safety.SafetyState:
@@ -253,20 +248,14 @@ class SpineNode:
                 c = scfg.damping_mode
                 tau_l = [-c * a for a in dq_l[1:]]
         if (controlled or mode_i == _DAMPING or mode_i == _JOINT_TORQUE) and not controller_failed:
-            lo, hi = self._inside  # joints between these are outside every limit margin: no damping
-            if not (lo is not None and lo[0] <= q_l[1] <= hi[0] and lo[1] <= q_l[2] <= hi[1]
-                    and lo[2] <= q_l[3] <= hi[2]):
-                extra, near = safety.joint_limit_damping_list(q_l[1:], dq_l[1:], self._lower, self._upper,
-                                                              scfg.limit_margin, scfg.joint_limit_damping)
-                if any(near):
-                    faults |= _JOINT_LIMIT
-                    tau_l = [a + b for a, b in zip(tau_l, extra, strict=True)]
-        lim = scfg.torque_limit
-        if not (len(tau_l) == 3 and -lim <= tau_l[0] <= lim and -lim <= tau_l[1] <= lim
-                and -lim <= tau_l[2] <= lim):  # else all finite and inside: nothing to clamp
-            tau_l, sat = safety.clamp_torque_list(tau_l, lim)
-            if any(sat):
-                faults |= _TORQUE_CLAMPED
+            extra, near = safety.joint_limit_damping_list(q_l[1:], dq_l[1:], self._lower, self._upper,
+                                                          scfg.limit_margin, scfg.joint_limit_damping)
+            if any(near):
+                faults |= _JOINT_LIMIT
+                tau_l = [a + b for a, b in zip(tau_l, extra, strict=True)]
+        tau_l, sat = safety.clamp_torque_list(tau_l, scfg.torque_limit)
+        if any(sat):
+            faults |= _TORQUE_CLAMPED
         tau = np.array(tau_l) if enable else np.zeros(3)
         if x is None:
             x = np.full(3, np.nan)
