@@ -144,8 +144,8 @@ class QuadrupedWorld:
             if info[2] == pb.JOINT_REVOLUTE:
                 self.joint_index[info[1].decode()] = i
         self.movable = sorted(self.joint_index.values())
-        self._pos_in_movable = {j: k for k, j in enumerate(self.movable)}
-        self.pos_in_movable = self._pos_in_movable  # joint index -> its place in jq, jdq and the torques
+        # joint index -> its place in jq, jdq and the torques
+        self.pos_in_movable = {j: k for k, j in enumerate(self.movable)}
         # Default velocity motors off: every joint is torque controlled.
         pb.setJointMotorControlArray(
             self.robot, self.movable, pb.VELOCITY_CONTROL, forces=[0.0] * len(self.movable), physicsClientId=c
@@ -177,7 +177,7 @@ class QuadrupedWorld:
         for link in self.foot_links:
             pb.changeDynamics(self.robot, link, lateralFriction=cfg.friction, physicsClientId=c)
         self.spine_idx = [self.joint_index[n] for n in self.meta["spine_joints"]]
-        self._spine_pos = tuple(self._pos_in_movable[j] for j in self.spine_idx)  # q2, q3, q4 in jq
+        self._spine_pos = tuple(self.pos_in_movable[j] for j in self.spine_idx)  # q2, q3, q4 in jq
         self.leg_idx = {
             k: (self.joint_index[v["haa"]], self.joint_index[v["hfe"]], self.joint_index[v["kfe"]])
             for k, v in self.legs.items()
@@ -336,7 +336,7 @@ class QuadrupedWorld:
                 force[key] += cp[9]
 
     def leg_state(self, key: str) -> LegState:
-        pim = self._pos_in_movable
+        pim = self.pos_in_movable
         haa, hfe, kfe = self.leg_idx[key]
         return LegState(
             key,
