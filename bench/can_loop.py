@@ -10,6 +10,11 @@ Two loops:
   own process on `udp_multicast`, inside a private network namespace this script makes (re-running itself
   under `unshare -n`), so it shares no interpreter lock with the loop; --emulator thread keeps it on a
   thread of this process (`virtual` bus).
+Beside the paced loop it runs the host ceiling: the same clock and schedule with no bus, each cycle doing
+a fixed pure-Python workload calibrated to the CPU the paced loop spent per cycle (process CPU time, all
+threads, minus what the bare clock spends). Cycles that loop loses are lost to the host (other jobs, the
+hypervisor slowing this VM's CPUs), not to CAN: on this project's shared VM a 100 us workload gets
+~1-2 ms slower now and then, and a loop doing ~300 us of Python per cycle loses ~2 % of its cycles.
 It also prints the bus-load model (8-byte extended frames, worst-case stuffing) for 3 motors at --rate-hz
 on a 1 Mbit/s bus, and the highest rate that keeps it under the project's 80 % limit.
 Goal (issue 11): 3 motors, 1 kHz +-1 % over 10 s.
@@ -83,8 +88,8 @@ def _paced_loop(mb, seconds: float, rate_hz: float) -> dict:
     """Receive the newest feedback, send one command set, wait for the next absolute deadline."""
     cmd = MotorCommand(tau_ff=np.full(3, 0.1), kd=np.full(3, 0.05))
     freeze_startup_objects()  # as spine-node does before its loop: no long gen-2 collection mid-run
-    sys.setswitchinterval(SWITCH_S)
     clock = RealTimeClock(rate_hz)
+    cpu0, main0 = time.process_time(), time.thread_time()
     tx0, rx0 = mb.tx_frames, mb.rx_frames
     n, stale = 0, 0
     error = None
@@ -109,11 +114,65 @@ def _paced_loop(mb, seconds: float, rate_hz: float) -> dict:
             break
         n += 1
     dt = time.monotonic() - t0
+    cpu, main = time.process_time() - cpu0, time.thread_time() - main0
     return {"cycles": n, "seconds": dt, "rate_hz": n / dt, "target_hz": rate_hz,
             "rate_ratio": n / dt / rate_hz,
+            "cpu_per_cycle_us": 1e6 * cpu / max(n, 1), "main_thread_cpu_per_cycle_us": 1e6 * main / max(n, 1),
             "cycles_without_fresh_feedback": stale, "overruns": clock.overruns, "rephases": clock.rephases,
             "period": stats.histogram.summary(), "bus_error": error,
             "tx_frames_per_s": (mb.tx_frames - tx0) / dt, "rx_frames_per_s": (mb.rx_frames - rx0) / dt}
+
+
+def _work_unit() -> int:
+    """A fixed amount of pure-Python work (no allocation that could trigger the garbage collector)."""
+    s = 0
+    for i in range(200):
+        s += i * i
+    return s
+
+
+def _unit_cpu_s() -> float:
+    """CPU time of one `_work_unit` at full speed: the fastest of 20 batches of 100."""
+    best = math.inf
+    for _ in range(20):
+        c0 = time.thread_time()
+        for _ in range(100):
+            _work_unit()
+        best = min(best, (time.thread_time() - c0) / 100)
+    return best
+
+
+def _clock_loop(seconds: float, rate_hz: float, units: int) -> dict:
+    clock = RealTimeClock(rate_hz)
+    stats = PeriodStats(1.0 / rate_hz)
+    n, c0 = 0, time.process_time()
+    while True:
+        now = clock.wait()
+        if now > seconds:
+            break
+        stats.mark(time.monotonic())
+        for _ in range(units):
+            _work_unit()
+        n += 1
+    return {"cycles": n, "rate_ratio": n / seconds / rate_hz, "overruns": clock.overruns,
+            "rephases": clock.rephases, "period": stats.histogram.summary(),
+            "cpu_per_cycle_us": 1e6 * (time.process_time() - c0) / max(n, 1)}
+
+
+def host_ceiling(seconds: float, rate_hz: float, loop_cpu_per_cycle_s: float) -> dict:
+    """The paced loop's schedule without a bus: each cycle does as much pure-Python work as the paced loop
+    spent CPU per cycle beyond the bare clock. What this loop loses, the host takes (see the module doc)."""
+    freeze_startup_objects()
+    bare = _clock_loop(min(1.0, seconds), rate_hz, 0)
+    unit = _unit_cpu_s()
+    work_s = max(0.0, loop_cpu_per_cycle_s - bare["cpu_per_cycle_us"] * 1e-6)
+    units = round(work_s / unit)
+    return {"work_cpu_per_cycle_us": 1e6 * units * unit,
+            "bare_clock_cpu_per_cycle_us": bare["cpu_per_cycle_us"], **_clock_loop(seconds, rate_hz, units)}
+
+
+def _with_ceiling(paced: dict, seconds: float, rate_hz: float) -> dict:
+    return {**paced, "host_ceiling": host_ceiling(seconds, rate_hz, paced["cpu_per_cycle_us"] * 1e-6)}
 
 
 def run_paced(seconds: float, rate_hz: float) -> dict:
@@ -123,7 +182,7 @@ def run_paced(seconds: float, rate_hz: float) -> dict:
     physics = threading.Thread(target=emu.run, args=(stop,), daemon=True)
     physics.start()
     try:
-        return {"emulator": "thread", **_paced_loop(mb, seconds, rate_hz)}
+        paced = _paced_loop(mb, seconds, rate_hz)
     finally:
         stop.set()
         physics.join()
@@ -131,9 +190,9 @@ def run_paced(seconds: float, rate_hz: float) -> dict:
         mb.shutdown()
         emu.shutdown()
         ebus.shutdown()
+    return {"emulator": "thread", **_with_ceiling(paced, seconds, rate_hz)}
 
 
-SWITCH_S = float(os.environ.get("SWITCH_S", "0.005"))
 GROUP = "239.74.163.9"
 
 
@@ -159,14 +218,16 @@ def run_paced_process(seconds: float, rate_hz: float, rt_priority: int | None = 
         mb.start()
         mb.receive(1.0)
         try:
-            return {"emulator": "process (udp_multicast, network namespace)", "realtime": rt,
-                    **_paced_loop(mb, seconds, rate_hz)}
+            paced = _paced_loop(mb, seconds, rate_hz)
         finally:
             mb.stop()
             mb.shutdown()
     finally:
         emu.terminate()
         emu.wait(10)
+    # after the emulator stopped: the ceiling has this process's CPU to itself, as the loop had
+    return {"emulator": "process (udp_multicast, network namespace)", "realtime": rt,
+            **_with_ceiling(paced, seconds, rate_hz)}
 
 
 def _in_netns(argv: list[str]) -> dict:
@@ -228,7 +289,12 @@ def main(argv: list[str] | None = None) -> int:
           f"{pc['cycles']} cycles without fresh feedback, {pc['overruns']} overruns, {pc['rephases']} "
           f"re-phases; period p50/p99/max {pc['period']['p50_us']:.0f}/{pc['period']['p99_us']:.0f}/"
           f"{pc['period']['max_us']:.0f} us; tx {pc['tx_frames_per_s']:.0f}/s, "
-          f"rx {pc['rx_frames_per_s']:.0f}/s")
+          f"rx {pc['rx_frames_per_s']:.0f}/s; CPU {pc['cpu_per_cycle_us']:.0f} us/cycle "
+          f"(main thread {pc['main_thread_cpu_per_cycle_us']:.0f})")
+    hc = pc["host_ceiling"]
+    print(f"host ceiling (same clock, no bus, {hc['work_cpu_per_cycle_us']:.0f} us of Python per cycle): "
+          f"ratio {hc['rate_ratio']:.3f}, {hc['overruns']} overruns, {hc['rephases']} re-phases; period max "
+          f"{hc['period']['max_us']:.0f} us")
     print(f"bus-load model, 3 motors at {args.rate_hz:.0f} Hz on 1 Mbit/s: {load.frames_per_s:.0f} frames/s, "
           f"{100 * load.utilisation_nominal:.1f} % unstuffed, {100 * load.utilisation_worst:.1f} % "
           f"worst case "

@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import itertools
 import logging
+import math
 import signal
 import threading
 import time
@@ -69,6 +71,12 @@ def open_bus(interface: str, channel: str, bitrate: int | None = None, **kwargs)
     if bitrate is not None and interface not in ("virtual", "udp_multicast"):
         kw["bitrate"] = bitrate
     return can.Bus(interface=interface, channel=channel, **kw)
+
+
+def _per_joint(a, n: int) -> list[float]:
+    """`a` (one value, or one per joint) as `n` Python floats; ValueError if it has another length."""
+    v = np.asarray(a, dtype=float)
+    return (v if v.shape == (n,) else np.broadcast_to(v, (n,))).tolist()
 
 
 class CanMotorBus(MotorBus):
@@ -231,15 +239,15 @@ class CanMotorBus(MotorBus):
             self._send_stops()
             with self._cond:
                 self._raise_pending()
-        try:
-            arrays = [np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in
-                      (command.tau_ff, command.q_des, command.dq_des, command.kp, command.kd)]
+        try:  # plain floats: the per-joint scaling and encoding below is scalar arithmetic
+            columns = [_per_joint(a, n) for a in
+                       (command.tau_ff, command.q_des, command.dq_des, command.kp, command.kd)]
         except ValueError as e:
             raise MotorBusError(f"command does not have {n} joints: {e}") from e
-        if not all(np.all(np.isfinite(a)) for a in arrays):
+        if not all(map(math.isfinite, itertools.chain.from_iterable(columns))):
             self._send_stops()
             raise MotorBusError("non-finite motor command; motors stopped")
-        tau, q_des, dq_des, kp, kd = arrays
+        tau, q_des, dq_des, kp, kd = columns
         if not self._enabled:
             self._send_enables()
         host = self.config.host_id
