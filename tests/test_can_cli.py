@@ -56,3 +56,9 @@ def test_can_loop_bench(tmp_path, monkeypatch):
     assert doc["max"]["cycles"] > 0 and doc["paced"]["cycles"] > 0
     assert doc["max"]["tx_frames_per_s"] > 0 and doc["max"]["rx_frames_per_s"] > 0
     assert doc["bus_load_model"]["utilisation_worst"] == 0.96
+    pc = doc["paced"]
+    assert pc["cpu_per_cycle_us"] > 0
+    hc = pc["host_ceiling"]  # the same clock without a bus, doing the loop's CPU per cycle as Python work
+    assert hc["cycles"] > 0 and hc["work_cpu_per_cycle_us"] >= 0
+    # the calibrated work runs at least as long as calibrated (load only makes CPU time longer)
+    assert hc["cpu_per_cycle_us"] >= 0.8 * hc["work_cpu_per_cycle_us"]
