@@ -76,3 +76,18 @@ def test_lcm_port_keeps_state_bytes_and_counts_a_malformed_state_when_read():
     assert port._states == [] and len(port._raw_states) == 2
     assert [s.seq for s in port.states] == [7] and port.rejected == 1
     np.testing.assert_array_equal(port.states[0].q, good.q)
+
+
+def test_reading_lcm_port_rejected_decodes_nothing():
+    lc = lcm.LCM("memq://")
+    port = LcmPort(lc=lc)
+    bad_hb = codec.decode_raw(channels.HEARTBEAT_NODE, codec.encode_heartbeat(codec.Heartbeat("node")))
+    bad_hb.seq = -1
+    lc.publish(channels.HEARTBEAT_NODE, bad_hb.encode())  # rejected as it arrives
+    lc.publish(channels.SPINE_STATE, codec.encode_torso(TorsoState()))  # rejected when `states` decodes it
+    lc.publish(channels.SPINE_STATE, codec.encode_state(SpineState(seq=3)))
+    assert port.node_heartbeats() == []
+    assert port.rejected == 1 and port.rejected == 1
+    assert port._states == [] and len(port._raw_states) == 2  # reading `rejected` decoded no state
+    assert [s.seq for s in port.states] == [3] and port.rejected == 2
+    assert [s.seq for s in port.states] == [3] and port.rejected == 2  # each state decoded and counted once

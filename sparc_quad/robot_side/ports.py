@@ -102,7 +102,11 @@ class CanEmulatorPort(InProcessPort):
 
 class LcmPort(Port):
     """Robot side over LCM. Spine states from the node are kept in `states` when `keep_states`: as the
-    bytes that arrived, decoded when `states` is read, so the robot's 1 kHz loop does not pay for them."""
+    bytes that arrived, decoded when `states` is read, so the robot's 1 kHz loop does not pay for them.
+
+    `rejected` counts the node's messages that failed validation: motor commands and heartbeats when they
+    arrive, spine states when `states` decodes them (read `states`, or `drain_states`, first for a full
+    count). Reading `rejected` changes nothing."""
 
     def __init__(self, url: str = "", lc: lcm.LCM | None = None, keep_states: bool = True) -> None:
         self.lc = lc if lc is not None else lcm.LCM(url)
@@ -111,7 +115,7 @@ class LcmPort(Port):
         self._states: list[SpineState] = []
         self._raw_states: list[bytes] = []
         self.keep_states = keep_states
-        self._rejected = 0
+        self.rejected = 0
         self._subs = [self.lc.subscribe(channels.MOTOR_COMMAND, self._on_command),
                       self.lc.subscribe(channels.HEARTBEAT_NODE, self._on_heartbeat)]
         if keep_states:
@@ -119,34 +123,29 @@ class LcmPort(Port):
 
     @property
     def states(self) -> list[SpineState]:
-        """The node's spine states received so far (decoded now; a malformed one counts in `rejected`)."""
+        """The node's spine states received so far. Those that arrived since the last read are decoded
+        now; a malformed one is logged and counted in `rejected`."""
         raw, self._raw_states = self._raw_states, []
         for data in raw:
             try:
                 self._states.append(codec.decode_state(data, channels.SPINE_STATE))
             except (MessageError, ValueError) as exc:
-                self._rejected += 1
+                self.rejected += 1
                 log.warning("rejected %s", exc)
         return self._states
-
-    @property
-    def rejected(self) -> int:
-        """Messages from the node that failed validation (spine states counted once decoded)."""
-        _ = self.states
-        return self._rejected
 
     def _on_command(self, channel: str, data: bytes) -> None:
         try:
             self._cmd = codec.decode_motor_command(data, channel)
         except MessageError as exc:
-            self._rejected += 1
+            self.rejected += 1
             log.warning("rejected %s", exc)
 
     def _on_heartbeat(self, channel: str, data: bytes) -> None:
         try:
             self._hbs.append(codec.decode_heartbeat(data, channel))
         except MessageError as exc:
-            self._rejected += 1
+            self.rejected += 1
             log.warning("rejected %s", exc)
 
     def _on_state(self, channel: str, data: bytes) -> None:

@@ -64,10 +64,14 @@ _BY_FINGERPRINT = {cls._get_packed_fingerprint(): cls for cls in LCM_TYPES}
 # --- validation ranges ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Range:
+    """Accepted values of one field: lo <= v <= hi (NaN only if nan_ok). `reason` replaces the default
+    rejection text (NaN / infinite / outside the range); "{v}" in it is the value as sent."""
+
     lo: float
     hi: float
     unit: str = ""
     nan_ok: bool = False
+    reason: str = ""
 
 
 _PI = math.pi
@@ -78,6 +82,10 @@ _REACH = sum(link.length_m for link in params.LINKS)  # straight spine, m
 K_MAX = (5000.0, 10000.0, 150.0)  # N/m, N/m, N*m/rad
 D_MAX = (200.0, 200.0, 10.0)  # N*s/m, N*s/m, N*m*s/rad
 
+_NOT_NEGATIVE = Range(0.0, math.inf, reason="{v} is negative")
+HEADER_RANGES = {"seq": _NOT_NEGATIVE, "utime": _NOT_NEGATIVE}  # seq is checked (and named) first
+MODE_RANGE = Range(0.0, float(len(MODES) - 1), reason=f"{{v}} is not a mode (0..{max(Mode)})")  # MODES[v]
+MOTOR_MODE_RANGE = Range(0.0, 2.0, reason="{v} is not a motor mode (0 reset, 1 cal, 2 run)")
 TORSO_RANGES = {
     "q1": Range(-_PI, _PI, "rad"),
     "dq1": Range(-50.0, 50.0, "rad/s"),
@@ -110,59 +118,6 @@ MOTOR_COMMAND_RANGES = {
 }
 
 
-def _check_value(channel: str, label: str, v: float, r: Range) -> None:
-    if v != v:  # NaN
-        if r.nan_ok:
-            return
-        raise MessageError(channel, label, "NaN")
-    if v in (math.inf, -math.inf):
-        raise MessageError(channel, label, f"{v} (infinite)")
-    if not r.lo <= v <= r.hi:
-        raise MessageError(channel, label, f"{v:.6g} outside [{r.lo:.6g}, {r.hi:.6g}] {r.unit}".rstrip())
-
-
-class _Checker:
-    """All numeric fields of one message type checked at once: the values are gathered into one float
-    vector and compared with precomputed bounds in one vectorised pass (NaN fails both comparisons).
-    Only when something fails is the first bad field found and named, with `_check_value`'s message."""
-
-    def __init__(self, ranges: dict, sizes: dict[str, int]) -> None:
-        self.names = tuple(ranges)
-        labels, rows = [], []
-        for name, r in ranges.items():
-            n = sizes.get(name, 1)
-            per = r if isinstance(r, list) else [r] * n
-            if name in sizes:
-                labels += [f"{name}[{i}]" for i in range(n)]
-            else:
-                labels.append(name)
-            rows += per
-        self.labels = tuple(labels)
-        self.ranges = tuple(rows)
-        self.lo = np.array([r.lo for r in rows])
-        self.hi = np.array([r.hi for r in rows])
-        self.nan_ok = np.array([r.nan_ok for r in rows])
-        self.any_nan_ok = bool(self.nan_ok.any())
-
-    def values(self, msg: object) -> np.ndarray:
-        vals: list = []
-        for name in self.names:
-            v = getattr(msg, name)
-            if isinstance(v, (list, tuple)):
-                vals += v
-            else:
-                vals.append(v)
-        return np.array(vals, dtype=float)
-
-    def check(self, channel: str, v: np.ndarray) -> None:
-        ok = _in_bounds(v, self.lo, self.hi, self.nan_ok if self.any_nan_ok else None)
-        if ok.all():
-            return
-        i = int(np.argmin(ok))
-        _check_value(channel, self.labels[i], float(v[i]), self.ranges[i])
-        raise MessageError(channel, self.labels[i], f"{v[i]!r} rejected")  # not reached: _check_value raised
-
-
 def _in_bounds(v: np.ndarray, lo: np.ndarray, hi: np.ndarray, nan_ok: np.ndarray | None) -> np.ndarray:
     """lo <= v <= hi elementwise (NaN fails unless nan_ok). Fresh arrays, no shared scratch buffers: a
     decode may run in an LCM handler thread and the node's thread at once."""
@@ -173,53 +128,80 @@ def _in_bounds(v: np.ndarray, lo: np.ndarray, hi: np.ndarray, nan_ok: np.ndarray
     return ok
 
 
-def _check_header(channel: str, msg: object) -> None:
-    if msg.seq < 0:
-        raise MessageError(channel, "seq", f"{msg.seq} is negative")
-    if msg.utime < 0:
-        raise MessageError(channel, "utime", f"{msg.utime} is negative")
-
-
-def _sizes(cls: type, ranges: dict) -> dict[str, int]:
-    """Array lengths of the fields in `ranges`, read from a default-constructed generated LCM object."""
-    m = cls()
-    return {name: len(getattr(m, name)) for name in ranges if isinstance(getattr(m, name), (list, tuple))}
-
-
-_TORSO_NO_DDQ1 = {k: v for k, v in TORSO_RANGES.items() if k != "ddq1"}
-TORSO_CHECK = _Checker(TORSO_RANGES, _sizes(torso_state_t, TORSO_RANGES))
-TORSO_CHECK_NO_DDQ1 = _Checker(_TORSO_NO_DDQ1, _sizes(torso_state_t, _TORSO_NO_DDQ1))
-COMMAND_CHECK = _Checker(COMMAND_RANGES, _sizes(spine_command_t, COMMAND_RANGES))
-FEEDBACK_CHECK = _Checker(FEEDBACK_RANGES, _sizes(motor_feedback_t, FEEDBACK_RANGES))
-MOTOR_COMMAND_CHECK = _Checker(MOTOR_COMMAND_RANGES, _sizes(motor_command_t, MOTOR_COMMAND_RANGES))
+def _reason(v: float, r: Range) -> str:
+    """Why `v` (as sent) is outside `r`; called only for a value `_in_bounds` refused."""
+    if r.reason:
+        return r.reason.format(v=v)
+    if v != v:
+        return "NaN"
+    if v in (math.inf, -math.inf):
+        return f"{v} (infinite)"
+    return f"{v:.6g} outside [{r.lo:.6g}, {r.hi:.6g}] {r.unit}".rstrip()
 
 
 _LAYOUTS = layouts(LCM_TYPES)
 
 
-class _FlatBounds:
-    """Bounds on every value of a fixed-size message as `Layout.unpack` returns them (header, enums and
-    booleans included), so a decoded message is accepted by one vectorised comparison of one float vector.
-    It accepts exactly what the per-field checks accept (they run, and name the field, when it fails)."""
+class Bounds:
+    """What one message type accepts, as bounds on the values of its layout's flat vector (the order of
+    `Layout.unpack`: header, enums and booleans included), built from a table of `Range`s by field name.
 
-    def __init__(self, cls: type, ranges: dict, extra: dict[str, tuple[float, float]]) -> None:
-        layout = _LAYOUTS[cls]
-        n = layout.n_values
-        self.lo, self.hi = np.full(n, -math.inf), np.full(n, math.inf)
-        self.nan_ok = np.zeros(n, dtype=bool)
-        for name, (lo, hi) in extra.items():
-            a, k = layout.index(name)
-            self.lo[a:a + k], self.hi[a:a + k] = lo, hi
-        for name, r in ranges.items():
-            a, k = layout.index(name)
-            for i, ri in enumerate(r if isinstance(r, list) else [r] * k):
-                self.lo[a + i], self.hi[a + i], self.nan_ok[a + i] = ri.lo, ri.hi, ri.nan_ok
-        self._nan_ok = self.nan_ok if self.nan_ok.any() else None
-        self.n = n
+    The fast decoders unpack a message and accept it with one vectorised comparison; when that fails,
+    and in the field-by-field `decode_*_checked` paths, the same object names the first bad field in the
+    table's order (the order the checks have always run in, so the errors are unchanged). A fixed-size
+    layout is compared whole (a value without an entry is unbounded: a NaN there fails the comparison,
+    finds no bad field and is accepted); a layout with strings compares only the values in the table."""
 
-    def ok(self, v: np.ndarray) -> bool:
-        # all() over Python bools is a C-level pass: ~0.6 us under ndarray.all()
-        return all(_in_bounds(v, self.lo, self.hi, self._nan_ok).tolist())
+    def __init__(self, cls: type, table: dict[str, Range | list[Range]]) -> None:
+        self.layout = layout = _LAYOUTS[cls]
+        strings = {lo for st, lo, _hi in layout.parts if st is None}
+        is_array = {name: arr for name, _a, _n, arr, _b in layout.fields}
+        checks: list[tuple[int, str, Range]] = []  # (flat index, field label, range) in table order
+        for name, r in table.items():
+            a, k = layout.index(name)
+            per = r if isinstance(r, list) else [r] * k
+            if a in strings or len(per) != k:
+                raise ValueError(f"{cls.__name__}.{name}: {len(per)} numeric ranges for {k} values")
+            checks += [(a + i, f"{name}[{i}]" if is_array[name] else name, ri) for i, ri in enumerate(per)]
+        # the compared vector: every value, or (strings in the layout) the checked ones in flat order
+        at = list(range(layout.n_values)) if not strings else sorted(i for i, _label, _r in checks)
+        self._pick = None if not strings else (lambda vals, at=tuple(at): [vals[i] for i in at])
+        pos = {flat: j for j, flat in enumerate(at)}
+        self.checks = tuple(checks)
+        self._walk = tuple((pos[i], label, r) for i, label, r in checks)  # positions in the compared vector
+        self.lo, self.hi = np.full(len(at), -math.inf), np.full(len(at), math.inf)
+        nan_ok = np.zeros(len(at), dtype=bool)
+        for j, _label, r in self._walk:
+            self.lo[j], self.hi[j], nan_ok[j] = r.lo, r.hi, r.nan_ok
+        self.nan_ok = nan_ok if nan_ok.any() else None
+
+    def values(self, m: object) -> list:
+        """The flat values of a generated message object, in layout order (`Layout.unpack`'s)."""
+        out: list = []
+        for name, _a, _n, is_array, _b in self.layout.fields:
+            if is_array:
+                out += getattr(m, name)
+            else:
+                out.append(getattr(m, name))
+        return out
+
+    def check(self, channel: str, vals: list | tuple) -> np.ndarray:
+        """The compared values of `vals` (flat, as `Layout.unpack` or `values` give them) as one float
+        vector (for a fixed-size layout: all of them, in order), or a MessageError naming the first bad
+        field."""
+        if self._pick is not None:
+            vals = self._pick(vals)
+        v = np.array(vals, dtype=float)
+        ok = _in_bounds(v, self.lo, self.hi, self.nan_ok).tolist()
+        if not all(ok):  # a C-level pass over Python bools: ~0.6 us under ndarray.all()
+            for j, label, r in self._walk:
+                if not ok[j]:
+                    raise MessageError(channel, label, _reason(vals[j], r))
+        return v
+
+    def check_message(self, channel: str, m: object) -> np.ndarray:
+        """`check` of a generated message object (the field-by-field paths)."""
+        return self.check(channel, self.values(m))
 
 
 def _blank(cls: type):
@@ -276,97 +258,104 @@ def _us(stamp_s: float) -> int:
 
 
 # --- per-type decode (validated) ------------------------------------------------------------------
-_HEADER = {"utime": (0.0, math.inf), "seq": (0.0, math.inf)}  # as _check_header
-_MODE_BOUNDS = (0.0, float(len(MODES) - 1))  # as _mode: Mode values are 0..n-1 (types.MODES)
+# Each fast decoder: one struct call (`Layout.unpack`), then its `Bounds.check` (one vectorised
+# comparison, or the named error). Bytes that are not one well-formed message of the type go to the
+# `*_checked` path, whose `decode_raw` names the fingerprint or framing problem.
 _TORSO = _LAYOUTS[torso_state_t]
 _T_UTIME, _T_SEQ, _T_Q1, _T_DQ1, _T_DDQ1, _T_VALID, _T_QUAT, _T_OMEGA = (
     _TORSO.index(f)[0] for f in ("utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega"))
-_TORSO_BOUNDS = (_FlatBounds(torso_state_t, _TORSO_NO_DDQ1, _HEADER),  # by ddq1_valid
-                 _FlatBounds(torso_state_t, TORSO_RANGES, _HEADER))
+_TORSO_BOUNDS = (Bounds(torso_state_t, {**HEADER_RANGES, **{k: r for k, r in TORSO_RANGES.items()
+                                                             if k != "ddq1"}}),  # by ddq1_valid
+                 Bounds(torso_state_t, {**HEADER_RANGES, **TORSO_RANGES}))
+
+
+def _not_unit(channel: str, norm: float) -> MessageError:
+    """The torso quaternion's norm must be 1 to within 10 % (the decoders normalise by it)."""
+    return MessageError(channel, "quat", f"norm {norm:.6g} is not 1")
 
 
 def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
-    vals = _TORSO.unpack(data)  # one struct call; one bounds check; the checked path names any problem
-    if vals is not None:
-        valid = vals[_T_VALID] != 0
-        v = np.array(vals, dtype=float)
-        if _TORSO_BOUNDS[valid].ok(v):
-            a = _T_QUAT
-            w, x, y, z = vals[a:a + 4]
-            norm = math.sqrt(w * w + x * x + y * y + z * z)
-            if 0.9 <= norm <= 1.1:
-                quat = v[a:a + 4]
-                quat /= norm
-                return TorsoState(q1=vals[_T_Q1], dq1=vals[_T_DQ1], ddq1=vals[_T_DDQ1] if valid else 0.0,
-                                  ddq1_valid=valid, quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3],
-                                  stamp_s=_s(vals[_T_UTIME]), seq=vals[_T_SEQ])
-    return decode_torso_checked(data, channel)
+    vals = _TORSO.unpack(data)
+    if vals is None:
+        return decode_torso_checked(data, channel)
+    valid = vals[_T_VALID] != 0
+    v = _TORSO_BOUNDS[valid].check(channel, vals)
+    a = _T_QUAT
+    w, x, y, z = vals[a:a + 4]
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    if not 0.9 <= norm <= 1.1:
+        raise _not_unit(channel, norm)
+    quat = v[a:a + 4]
+    quat /= norm
+    return TorsoState(q1=vals[_T_Q1], dq1=vals[_T_DQ1], ddq1=vals[_T_DDQ1] if valid else 0.0,
+                      ddq1_valid=valid, quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3],
+                      stamp_s=_s(vals[_T_UTIME]), seq=vals[_T_SEQ])
 
 
 def decode_torso_checked(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
     """`decode_torso` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, torso_state_t)
-    _check_header(channel, m)
-    check = TORSO_CHECK if m.ddq1_valid else TORSO_CHECK_NO_DDQ1
-    v = check.values(m)  # q1, dq1, [ddq1], quat (4), omega (3)
-    check.check(channel, v)
+    v = _TORSO_BOUNDS[bool(m.ddq1_valid)].check_message(channel, m)
     w, x, y, z = m.quat
     norm = math.sqrt(w * w + x * x + y * y + z * z)
     if not 0.9 <= norm <= 1.1:
-        raise MessageError(channel, "quat", f"norm {norm:.6g} is not 1")
-    quat = v[-7:-3]
+        raise _not_unit(channel, norm)
+    quat = v[_T_QUAT:_T_QUAT + 4]
     quat /= norm
     return TorsoState(q1=m.q1, dq1=m.dq1, ddq1=m.ddq1 if m.ddq1_valid else 0.0, ddq1_valid=bool(m.ddq1_valid),
-                      quat=quat, omega=v[-3:], stamp_s=_s(m.utime), seq=m.seq)
+                      quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3], stamp_s=_s(m.utime), seq=m.seq)
 
 
 _ALL_FAULTS = int(sum(f.value for f in Fault if f.value and (f.value & (f.value - 1)) == 0))
-
-
-def _mode(channel: str, name: str, value: int) -> Mode:
-    """A `Mode` from a wire integer; an out-of-range value is a MessageError naming the field."""
-    try:
-        return Mode(value)
-    except ValueError:
-        raise MessageError(channel, name, f"{value} is not a mode (0..{max(Mode)})") from None
-
 
 _COMMAND = _LAYOUTS[spine_command_t]
 _C_UTIME, _C_SEQ, _C_MODE, _C_X_D, _C_DX_D, _C_DDX_D, _C_K, _C_D, _C_FRICTION, _C_TAU_FF, _C_RESET = (
     _COMMAND.index(f)[0] for f in ("utime", "seq", "mode", "x_d", "dx_d", "ddx_d", "k", "d",
                                    "friction_compensation", "tau_ff", "reset"))
-_COMMAND_BOUNDS = _FlatBounds(spine_command_t, COMMAND_RANGES, {**_HEADER, "mode": _MODE_BOUNDS})
+_COMMAND_BOUNDS = Bounds(spine_command_t, {**HEADER_RANGES, "mode": MODE_RANGE, **COMMAND_RANGES})
 
 
 def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
-    vals = _COMMAND.unpack(data)  # one struct call; one bounds check; the checked path names any problem
-    if vals is not None:
-        v = np.array(vals, dtype=float)
-        if _COMMAND_BOUNDS.ok(v):
-            return SpineCommand(mode=MODES[vals[_C_MODE]], x_d=v[_C_X_D:_C_X_D + 3],
-                                dx_d=v[_C_DX_D:_C_DX_D + 3], ddx_d=v[_C_DDX_D:_C_DDX_D + 3],
-                                k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
-                                friction_compensation=vals[_C_FRICTION] != 0,
-                                tau_ff=v[_C_TAU_FF:_C_TAU_FF + 3], reset=vals[_C_RESET] != 0,
-                                stamp_s=_s(vals[_C_UTIME]), seq=vals[_C_SEQ])
-    return decode_command_checked(data, channel)
+    vals = _COMMAND.unpack(data)
+    if vals is None:
+        return decode_command_checked(data, channel)
+    v = _COMMAND_BOUNDS.check(channel, vals)
+    return SpineCommand(mode=MODES[vals[_C_MODE]], x_d=v[_C_X_D:_C_X_D + 3], dx_d=v[_C_DX_D:_C_DX_D + 3],
+                        ddx_d=v[_C_DDX_D:_C_DDX_D + 3], k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
+                        friction_compensation=vals[_C_FRICTION] != 0, tau_ff=v[_C_TAU_FF:_C_TAU_FF + 3],
+                        reset=vals[_C_RESET] != 0, stamp_s=_s(vals[_C_UTIME]), seq=vals[_C_SEQ])
 
 
 def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
     """`decode_command` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, spine_command_t)
-    _check_header(channel, m)
-    mode = _mode(channel, "mode", m.mode)
-    v = COMMAND_CHECK.values(m)  # x_d, dx_d, ddx_d, k, d, tau_ff: 3 each, one array, views below
-    COMMAND_CHECK.check(channel, v)
-    return SpineCommand(mode=mode, x_d=v[0:3], dx_d=v[3:6], ddx_d=v[6:9], k=v[9:12], d=v[12:15],
-                        friction_compensation=bool(m.friction_compensation), tau_ff=v[15:18],
-                        reset=bool(m.reset), stamp_s=_s(m.utime), seq=m.seq)
+    v = _COMMAND_BOUNDS.check_message(channel, m)
+    return SpineCommand(mode=Mode(m.mode), x_d=v[_C_X_D:_C_X_D + 3], dx_d=v[_C_DX_D:_C_DX_D + 3],
+                        ddx_d=v[_C_DDX_D:_C_DDX_D + 3], k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
+                        friction_compensation=bool(m.friction_compensation),
+                        tau_ff=v[_C_TAU_FF:_C_TAU_FF + 3], reset=bool(m.reset), stamp_s=_s(m.utime),
+                        seq=m.seq)
+
+
+_HEARTBEAT = _LAYOUTS[heartbeat_t]
+_H_UTIME, _H_SEQ, _H_SENDER, _H_FAULT, _H_RESET_COUNT = (
+    _HEARTBEAT.index(f)[0] for f in ("utime", "seq", "sender", "fault", "reset_count"))
+_HEARTBEAT_BOUNDS = Bounds(heartbeat_t, HEADER_RANGES)
 
 
 def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> Heartbeat:
+    vals = _HEARTBEAT.unpack(data)
+    if vals is None:
+        return decode_heartbeat_checked(data, channel)
+    _HEARTBEAT_BOUNDS.check(channel, vals)
+    return Heartbeat(sender=vals[_H_SENDER], fault=vals[_H_FAULT] != 0, reset_count=vals[_H_RESET_COUNT],
+                     stamp_s=_s(vals[_H_UTIME]), seq=vals[_H_SEQ])
+
+
+def decode_heartbeat_checked(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> Heartbeat:
+    """`decode_heartbeat` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, heartbeat_t)
-    _check_header(channel, m)
+    _HEARTBEAT_BOUNDS.check_message(channel, m)
     return Heartbeat(sender=m.sender, fault=bool(m.fault), reset_count=m.reset_count, stamp_s=_s(m.utime),
                      seq=m.seq)
 
@@ -374,7 +363,7 @@ def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> He
 _FEEDBACK = _LAYOUTS[motor_feedback_t]
 _F_UTIME, _F_SEQ, _F_ANGLE, _F_VELOCITY, _F_TORQUE, _F_TEMPERATURE, _F_MODE, _F_FAULT, _F_LOAD_CELL = (
     _FEEDBACK.index(f)[0] for f in motor_feedback_t.__slots__)
-_FEEDBACK_BOUNDS = _FlatBounds(motor_feedback_t, FEEDBACK_RANGES, {**_HEADER, "mode": (0.0, 2.0)})
+_FEEDBACK_BOUNDS = Bounds(motor_feedback_t, {**HEADER_RANGES, **FEEDBACK_RANGES, "mode": MOTOR_MODE_RANGE})
 _FEEDBACK_STRUCT = _FEEDBACK.parts[0][0] if _FEEDBACK.fixed and len(_FEEDBACK.parts) == 1 else None
 if _FEEDBACK_STRUCT is None or tuple(motor_feedback_t.__slots__) != (
         "utime", "seq", "angle", "velocity", "torque", "temperature", "mode", "fault", "load_cell"):
@@ -383,29 +372,23 @@ if _FEEDBACK_STRUCT is None or tuple(motor_feedback_t.__slots__) != (
 
 def decode_motor_feedback(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -> MotorFeedback:
     """One struct call and one bounds check (every tick of a node over LCM, on the lockstep round trip);
-    anything else goes field by field through `decode_motor_feedback_checked`, which names the problem."""
+    bytes that are not one well-formed message go through `decode_motor_feedback_checked`."""
     vals = _FEEDBACK.unpack(data)
-    if vals is not None:
-        v = np.array(vals, dtype=float)
-        if _FEEDBACK_BOUNDS.ok(v):
-            return MotorFeedback(q=v[_F_ANGLE:_F_ANGLE + 3], dq=v[_F_VELOCITY:_F_VELOCITY + 3],
-                                 tau=v[_F_TORQUE:_F_TORQUE + 3],
-                                 temperature_c=v[_F_TEMPERATURE:_F_TEMPERATURE + 3],
-                                 mode=np.array(vals[_F_MODE:_F_MODE + 3], dtype=np.int32),
-                                 fault=np.array(vals[_F_FAULT:_F_FAULT + 3], dtype=np.int32),
-                                 load_cell_n=v[_F_LOAD_CELL:_F_LOAD_CELL + 2], stamp_s=_s(vals[_F_UTIME]),
-                                 seq=vals[_F_SEQ])
-    return decode_motor_feedback_checked(data, channel)
+    if vals is None:
+        return decode_motor_feedback_checked(data, channel)
+    v = _FEEDBACK_BOUNDS.check(channel, vals)
+    return MotorFeedback(q=v[_F_ANGLE:_F_ANGLE + 3], dq=v[_F_VELOCITY:_F_VELOCITY + 3],
+                         tau=v[_F_TORQUE:_F_TORQUE + 3], temperature_c=v[_F_TEMPERATURE:_F_TEMPERATURE + 3],
+                         mode=np.array(vals[_F_MODE:_F_MODE + 3], dtype=np.int32),
+                         fault=np.array(vals[_F_FAULT:_F_FAULT + 3], dtype=np.int32),
+                         load_cell_n=v[_F_LOAD_CELL:_F_LOAD_CELL + 2], stamp_s=_s(vals[_F_UTIME]),
+                         seq=vals[_F_SEQ])
 
 
 def decode_motor_feedback_checked(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -> MotorFeedback:
     """`decode_motor_feedback` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, motor_feedback_t)
-    _check_header(channel, m)
-    FEEDBACK_CHECK.check(channel, FEEDBACK_CHECK.values(m))
-    for i, mode in enumerate(m.mode):
-        if mode not in (0, 1, 2):
-            raise MessageError(channel, f"mode[{i}]", f"{mode} is not a motor mode (0 reset, 1 cal, 2 run)")
+    _FEEDBACK_BOUNDS.check_message(channel, m)
     return MotorFeedback(q=np.array(m.angle), dq=np.array(m.velocity), tau=np.array(m.torque),
                          temperature_c=np.array(m.temperature), mode=np.array(m.mode, dtype=np.int32),
                          fault=np.array(m.fault, dtype=np.int32), load_cell_n=np.array(m.load_cell),
@@ -415,7 +398,7 @@ def decode_motor_feedback_checked(data: bytes, channel: str = channels.MOTOR_FEE
 _MCMD = _LAYOUTS[motor_command_t]
 _M_UTIME, _M_SEQ, _M_FEEDBACK_SEQ, _M_ENABLE, _M_POSITION, _M_VELOCITY, _M_KP, _M_KD, _M_TORQUE = (
     _MCMD.index(f)[0] for f in motor_command_t.__slots__)
-_MCMD_BOUNDS = _FlatBounds(motor_command_t, MOTOR_COMMAND_RANGES, _HEADER)
+_MCMD_BOUNDS = Bounds(motor_command_t, {**HEADER_RANGES, **MOTOR_COMMAND_RANGES})
 _MCMD_STRUCT = _MCMD.parts[0][0] if _MCMD.fixed and len(_MCMD.parts) == 1 else None
 if _MCMD_STRUCT is None or tuple(motor_command_t.__slots__) != (
         "utime", "seq", "feedback_seq", "enable", "position", "velocity", "kp", "kd", "torque"):
@@ -424,38 +407,42 @@ if _MCMD_STRUCT is None or tuple(motor_command_t.__slots__) != (
 
 def decode_motor_command(data: bytes, channel: str = channels.MOTOR_COMMAND) -> tuple[MotorCommand, int]:
     """Returns (command, feedback_seq it answers; -1 if none). One struct call and one bounds check (the
-    robot's end of every lockstep round trip); anything else goes through `decode_motor_command_checked`."""
+    robot's end of every lockstep round trip); bytes that are not one well-formed message go through
+    `decode_motor_command_checked`."""
     vals = _MCMD.unpack(data)
-    if vals is not None:
-        v = np.array(vals, dtype=float)
-        if _MCMD_BOUNDS.ok(v):
-            return MotorCommand(tau_ff=v[_M_TORQUE:_M_TORQUE + 3], q_des=v[_M_POSITION:_M_POSITION + 3],
-                                dq_des=v[_M_VELOCITY:_M_VELOCITY + 3], kp=v[_M_KP:_M_KP + 3],
-                                kd=v[_M_KD:_M_KD + 3], enable=vals[_M_ENABLE] != 0,
-                                stamp_s=_s(vals[_M_UTIME]), seq=vals[_M_SEQ]), vals[_M_FEEDBACK_SEQ]
-    return decode_motor_command_checked(data, channel)
+    if vals is None:
+        return decode_motor_command_checked(data, channel)
+    v = _MCMD_BOUNDS.check(channel, vals)
+    return MotorCommand(tau_ff=v[_M_TORQUE:_M_TORQUE + 3], q_des=v[_M_POSITION:_M_POSITION + 3],
+                        dq_des=v[_M_VELOCITY:_M_VELOCITY + 3], kp=v[_M_KP:_M_KP + 3], kd=v[_M_KD:_M_KD + 3],
+                        enable=vals[_M_ENABLE] != 0, stamp_s=_s(vals[_M_UTIME]),
+                        seq=vals[_M_SEQ]), vals[_M_FEEDBACK_SEQ]
 
 
 def decode_motor_command_checked(data: bytes, channel: str = channels.MOTOR_COMMAND
                                  ) -> tuple[MotorCommand, int]:
     """`decode_motor_command` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, motor_command_t)
-    _check_header(channel, m)
-    MOTOR_COMMAND_CHECK.check(channel, MOTOR_COMMAND_CHECK.values(m))
+    _MCMD_BOUNDS.check_message(channel, m)
     cmd = MotorCommand(tau_ff=np.array(m.torque), q_des=np.array(m.position), dq_des=np.array(m.velocity),
                        kp=np.array(m.kp), kd=np.array(m.kd), enable=bool(m.enable), stamp_s=_s(m.utime),
                        seq=m.seq)
     return cmd, m.feedback_seq
 
 
+_STATE_BOUNDS = Bounds(spine_state_t, {"mode": MODE_RANGE, "requested_mode": MODE_RANGE})
+
+
 def decode_state(data: bytes, channel: str = channels.SPINE_STATE) -> SpineState:
-    """Spine state (for tools and tests): fingerprint and length checked; values reported as sent."""
+    """Spine state (for tools and tests): fingerprint and length checked, modes and fault bits known;
+    values reported as sent."""
     m = decode_raw(channel, data, spine_state_t)
-    mode, requested = _mode(channel, "mode", m.mode), _mode(channel, "requested_mode", m.requested_mode)
+    _STATE_BOUNDS.check_message(channel, m)
     if m.faults < 0 or m.faults & ~_ALL_FAULTS:
         raise MessageError(channel, "faults", f"{m.faults:#x} has bits that are not faults "
                                               f"(known: {_ALL_FAULTS:#x})")
-    return SpineState(stamp_s=_s(m.utime), seq=m.seq, mode=mode, requested_mode=requested,
+    return SpineState(stamp_s=_s(m.utime), seq=m.seq, mode=MODES[m.mode],
+                      requested_mode=MODES[m.requested_mode],
                       faults=Fault(m.faults), rejected=m.rejected, q=np.array(m.q), dq=np.array(m.dq),
                       tau_cmd=np.array(m.tau_cmd), tau_est=np.array(m.tau_est), x=np.array(m.x),
                       dx=np.array(m.dx), gain_scale=m.gain_scale, load_cell=np.array(m.load_cell),
