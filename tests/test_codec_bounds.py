@@ -175,3 +175,26 @@ def test_fast_motor_decoders_reject_as_the_checked_ones(cls) -> None:
         assert got[0] == got[1], got
         kinds[got[0].split(":")[0]] += 1
     assert min(kinds.values()) > 100, kinds
+
+
+@pytest.mark.parametrize("cls", [heartbeat_t, spine_state_t], ids=lambda c: c.__name__)
+def test_a_string_lcm_gen_reads_but_the_layout_does_not_takes_the_reference_path(cls) -> None:
+    """An empty string sent as length 0 (no NUL): lcm-gen reads it, `Layout.unpack` refuses it; the decoder
+    falls back to lcm-gen's object and checks it with the same bounds."""
+    channel, data, decoders = CASES[cls]
+    layout = BOUNDS[cls].layout
+    a = layout.index("sender" if cls is heartbeat_t else "rejected")[0]
+    vals = list(layout.unpack(data))
+    vals[a] = ""
+    head = 8 + layout.parts[0][0].size  # the string follows the first run of fixed-size fields
+    raw = layout.pack(vals)
+    crafted = raw[:head] + b"\0\0\0\0" + raw[head + 5:]
+    assert layout.unpack(crafted) is None and codec.decode_raw(channel, crafted, cls).seq == vals[1]
+    assert _outcomes(decoders, crafted) == ["ok"] * len(decoders)
+    m = decoders[0](crafted, channel)
+    assert m.seq == vals[1] and (m.sender if cls is heartbeat_t else m.rejected) == ""
+    seq = layout.index("seq")[0]
+    bad = crafted[:8] + layout.parts[0][0].pack(*[-4 if i == seq else v for i, v in enumerate(vals[:a])]) + \
+        crafted[head:]
+    want = f"{channel}.seq: -4 is negative" if cls is heartbeat_t else "ok"  # a state's seq has no bound
+    assert {o.removeprefix("MessageError: ") for o in _outcomes(decoders, bad)} == {want}

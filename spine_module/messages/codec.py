@@ -430,25 +430,41 @@ def decode_motor_command_checked(data: bytes, channel: str = channels.MOTOR_COMM
     return cmd, m.feedback_seq
 
 
+_STATE = _LAYOUTS[spine_state_t]
 _STATE_BOUNDS = Bounds(spine_state_t, {"mode": MODE_RANGE, "requested_mode": MODE_RANGE})
+(_S_UTIME, _S_SEQ, _S_MODE, _S_REQUESTED, _S_FAULTS, _S_REJECTED, _S_GAIN_SCALE, _S_PERIOD, _S_JITTER_MAX,
+ _S_COMPUTE, _S_FEEDBACK_SEQ, _S_COMMAND_SEQ, _S_TORSO_SEQ) = (
+    _STATE.index(f)[0] for f in ("utime", "seq", "mode", "requested_mode", "faults", "rejected",
+                                 "gain_scale", "period", "jitter_max", "compute", "feedback_seq",
+                                 "command_seq", "torso_seq"))
+_S_Q, _S_DQ, _S_TAU_CMD, _S_TAU_EST, _S_X, _S_DX, _S_LOAD_CELL, _S_TEMPERATURE = (
+    slice(a, a + n) for a, n in (_STATE.index(f) for f in ("q", "dq", "tau_cmd", "tau_est", "x", "dx",
+                                                           "load_cell", "temperature")))
 
 
 def decode_state(data: bytes, channel: str = channels.SPINE_STATE) -> SpineState:
-    """Spine state (for tools and tests): fingerprint and length checked, modes and fault bits known;
-    values reported as sent."""
-    m = decode_raw(channel, data, spine_state_t)
-    _STATE_BOUNDS.check_message(channel, m)
-    if m.faults < 0 or m.faults & ~_ALL_FAULTS:
-        raise MessageError(channel, "faults", f"{m.faults:#x} has bits that are not faults "
+    """Spine state (for tools and tests, often thousands at a time): fingerprint and length checked,
+    modes and fault bits known; values reported as sent. Read by `Layout.unpack`; bytes it does not take
+    as one message go through lcm-gen's decode (`decode_raw`), which names the problem."""
+    vals = _STATE.unpack(data)
+    if vals is None:
+        vals = _STATE_BOUNDS.values(decode_raw(channel, data, spine_state_t))
+    _STATE_BOUNDS.check(channel, vals)
+    faults = vals[_S_FAULTS]
+    if faults < 0 or faults & ~_ALL_FAULTS:
+        raise MessageError(channel, "faults", f"{faults:#x} has bits that are not faults "
                                               f"(known: {_ALL_FAULTS:#x})")
-    return SpineState(stamp_s=_s(m.utime), seq=m.seq, mode=MODES[m.mode],
-                      requested_mode=MODES[m.requested_mode],
-                      faults=Fault(m.faults), rejected=m.rejected, q=np.array(m.q), dq=np.array(m.dq),
-                      tau_cmd=np.array(m.tau_cmd), tau_est=np.array(m.tau_est), x=np.array(m.x),
-                      dx=np.array(m.dx), gain_scale=m.gain_scale, load_cell=np.array(m.load_cell),
-                      temperature=np.array(m.temperature), period=m.period, jitter_max=m.jitter_max,
-                      compute=m.compute, feedback_seq=m.feedback_seq, command_seq=m.command_seq,
-                      torso_seq=m.torso_seq)
+    return SpineState(stamp_s=_s(vals[_S_UTIME]), seq=vals[_S_SEQ], mode=MODES[vals[_S_MODE]],
+                      requested_mode=MODES[vals[_S_REQUESTED]], faults=Fault(faults),
+                      rejected=vals[_S_REJECTED], q=np.array(vals[_S_Q], dtype=float),
+                      dq=np.array(vals[_S_DQ], dtype=float), tau_cmd=np.array(vals[_S_TAU_CMD], dtype=float),
+                      tau_est=np.array(vals[_S_TAU_EST], dtype=float), x=np.array(vals[_S_X], dtype=float),
+                      dx=np.array(vals[_S_DX], dtype=float), gain_scale=vals[_S_GAIN_SCALE],
+                      load_cell=np.array(vals[_S_LOAD_CELL], dtype=float),
+                      temperature=np.array(vals[_S_TEMPERATURE], dtype=float), period=vals[_S_PERIOD],
+                      jitter_max=vals[_S_JITTER_MAX], compute=vals[_S_COMPUTE],
+                      feedback_seq=vals[_S_FEEDBACK_SEQ], command_seq=vals[_S_COMMAND_SEQ],
+                      torso_seq=vals[_S_TORSO_SEQ])
 
 
 DECODERS = {
@@ -573,7 +589,6 @@ def encode_motor_command_checked(c: MotorCommand, feedback_seq: int = -1) -> byt
     return _encode(m)
 
 
-_STATE = _LAYOUTS[spine_state_t]
 if tuple(spine_state_t.__slots__) != (
         "utime", "seq", "mode", "requested_mode", "faults", "rejected", "q", "dq", "tau_cmd", "tau_est", "x",
         "dx", "gain_scale", "load_cell", "temperature", "period", "jitter_max", "compute", "feedback_seq",
