@@ -33,10 +33,18 @@ def _wait_for(pred, proc: subprocess.Popen, what: str, timeout_s: float = 300.0)
         time.sleep(0.05)
 
 
+def _sigint_default() -> None:
+    """In the child before exec: SIGINT as a terminal gives it. A shell without job control starts its
+    background jobs (and so this test run, e.g. `make test &` in a script) with SIGINT ignored, which the
+    child would inherit: Python then installs no KeyboardInterrupt handler and Ctrl-C does nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _interrupt(argv: list[str], out: Path) -> tuple[int, str]:
     """Start the command, SIGINT it once it has begun its temporary output folder, return (rc, stderr)."""
     proc = subprocess.Popen([sys.executable, "-m", "sparc_quad", *argv, "--out", str(out)], cwd=ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_sigint_default)
     _wait_for(lambda: any(out.parent.glob(f".{out.name}.tmp-*")), proc, "temporary output folder")
     proc.send_signal(signal.SIGINT)
     try:
