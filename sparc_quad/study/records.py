@@ -189,11 +189,13 @@ CONFIG_FIRST = ("gait", "spine", "speed", "slope", "seed", "duration")
 
 def records_table(records: Iterable[dict]) -> tuple[list[str], list[dict]]:
     """(columns, rows): config columns first, then status/error, then every metric (per-stride lists
-    stay in the JSON records)."""
+    stay in the JSON records). Each record is read as its JSON file holds it, so a trial run in this
+    call (NaN, numpy scalars, tuples in memory) gives the same row as the same trial read from disk."""
     rows = []
     cfg_keys: set[str] = set()
     metric_keys: set[str] = set()
     for rec in records:
+        rec = json.loads(json.dumps(jsonable(rec), allow_nan=False))
         cfg = rec["config"]
         metrics = {k: v for k, v in (rec.get("metrics") or {}).items() if k != "strides"}
         flat = flatten(metrics)
