@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 OUT ?= out/demo
 
-.PHONY: install demo test test-slow lint bench clean constraints
+.PHONY: install demo test test-unit test-slow lint bench clean constraints
 
 # Everything (`.[all,dev]`), pinned by constraints.txt so a new release of a dependency cannot change the
 # test environment without a commit. The robot itself needs only `pip install .` (see README).
@@ -23,6 +23,10 @@ demo: install
 test: install
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q -m "not slow"
+
+# the unit tier: no slow studies, no multi-process integration tests
+test-unit: install
+	$(BIN)/python -m pytest -q -m "not slow and not integration"
 
 test-slow: install
 	$(BIN)/python -m pytest -q -m slow

@@ -3,7 +3,7 @@
 Nothing here reads a clock or keeps hidden state: the node passes `now` (its own clock, s), the receipt
 times of its inputs and the previous `SafetyState`, and gets back a new state and a `Verdict` saying
 which mode to run and how. Every behaviour below is documented in README ("Safety") and has a
-fault-injection test in `tests/test_safety_*.py` / `tests/test_node_*.py`.
+fault-injection test in `tests/spine_module/node/` and `tests/integration/`.
 
 Behaviours (deadlines from `params.SAFETY`):
 - torso state older than `torso_deadline_s` (or never received): q1 is not trusted, the node runs the

@@ -1,4 +1,4 @@
-"""Helpers shared by tests/test_can_*.py: a private virtual CAN channel with emulated motors and a sniffer."""
+"""Helpers shared by the CAN tests: a private virtual CAN channel with emulated motors and a sniffer."""
 
 from __future__ import annotations
 

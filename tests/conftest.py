@@ -12,6 +12,15 @@ from spine_module.messages import channels
 from tests.node_netns import PERIOD, K, lcm_tool, run_in_netns
 
 ROOT = Path(__file__).resolve().parents[1]
+INTEGRATION = ROOT / "tests" / "integration"
+
+
+def pytest_collection_modifyitems(config, items):
+    """Everything under tests/integration/ (several processes, sockets, namespaces) carries the
+    `integration` marker, so `-m "not integration"` is the unit tier."""
+    for item in items:
+        if INTEGRATION in Path(item.fspath).parents:
+            item.add_marker(pytest.mark.integration)
 
 
 @pytest.fixture(scope="session")

@@ -2,8 +2,8 @@
 or the Python/pinocchio reference paths. The choice is a pure function of the run's configuration, never
 of what this process loaded before, so a study's trial does not depend on the trials its worker ran first.
 
-The compiled paths equal the reference to round-off (tests/test_bound_backend.py) but a bound is chaotic
-over seconds of contacts, so a long run's trajectory is the same bound, not the same bits.
+The compiled paths equal the reference to round-off (tests/sparc_quad/sim/test_bound_backend.py), but a
+bound is chaotic over seconds of contacts, so a long run's trajectory is the same bound, not the same bits.
 """
 
 from __future__ import annotations

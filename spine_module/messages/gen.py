@@ -1,7 +1,8 @@
 """Generate the Python LCM classes from `lcm_types/*.lcm` with `lcm-gen -p`.
 
 The generated code is committed under `spine_module/messages/lcmt/` (so a robot computer needs no
-lcm-gen at install time); `tests/test_messages_gen.py` regenerates into a temporary folder and fails when
+lcm-gen at install time); `tests/spine_module/messages/test_messages_gen.py` regenerates into a temporary
+folder and fails when
 the committed files drift from the `.lcm` sources. Regenerate after editing a `.lcm` file:
 
     python -m spine_module.messages.gen

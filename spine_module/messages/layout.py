@@ -5,7 +5,8 @@ constructor per message). The same bytes are one precompiled `struct.Struct` per
 fields; `Layout` builds it from the generated class's own `__slots__`, `__typenames__` and
 `__dimensions__` (nothing hand-copied), so a regenerated type changes the layout with it. Types it
 cannot express (nested types, variable-length arrays, byte arrays) raise NotImplementedError and keep
-lcm-gen's code. `tests/test_messages_layout.py` checks both directions byte for byte against lcm-gen.
+lcm-gen's code. `tests/spine_module/messages/test_messages_layout.py`
+checks both directions byte for byte against lcm-gen.
 """
 
 from __future__ import annotations

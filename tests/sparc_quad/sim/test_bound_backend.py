@@ -3,8 +3,6 @@ the "auto" rule, and the reference path against a trajectory recorded before the
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -14,10 +12,11 @@ from sparc_quad.sim.bound_run import BoundConfig, run_bound
 from sparc_quad.sim.loop_backend import NUMBA_PAYBACK_SIM_S, resolve_backend
 from sparc_quad.sim.quadruped_world import WorldConfig
 from sparc_quad.sim.spine_drive import ImpedanceSpine, SpineGains
+from tests.paths import DATA
 
 pytest.importorskip("numba")
 
-REFERENCE = Path(__file__).parent / "data" / "bound_reference_1s.npz"
+REFERENCE = DATA / "bound_reference_1s.npz"
 
 
 class _Shadow:

@@ -12,8 +12,7 @@ import pytest
 
 from spine_module.node import clocks, realtime
 from spine_module.node.clocks import PeriodHistogram, RealTimeClock
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.paths import ROOT
 
 
 def test_histogram_percentiles() -> None:

@@ -6,7 +6,6 @@ import dataclasses
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ import pytest
 from spine_module import params as P
 from spine_module.control import ImpedanceController, StribeckFriction, TaskPDController
 from spine_module.model import SpineModel
+from tests.paths import ROOT
 
 pytest.importorskip("numba")
 
@@ -143,7 +143,7 @@ def test_second_process_loads_the_cached_kernel() -> None:
     """Compile cost is paid once per machine (numba cache), not by every process of a sweep."""
     code = ("import spine_module.control.compiled as c; s = c.spine_step.stats; "
             "print(sum(s.cache_misses.values()), sum(s.cache_hits.values()))")
-    root = Path(__file__).resolve().parents[1]
+    root = ROOT
     env = {**os.environ, "PYTHONPATH": str(root)}
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root,
                            timeout=300, check=True).stdout.split() for _ in range(2)]

@@ -20,8 +20,8 @@ import pytest
 from sparc_quad.robot_side.quad import NodeSpine
 from sparc_quad.sim.bound_run import BoundConfig, run_bound
 from tests.node_netns import run_in_netns, unshare_prefix
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 DURATION = 2.5
 
 pytestmark = [pytest.mark.netns,

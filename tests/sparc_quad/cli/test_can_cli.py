@@ -5,14 +5,12 @@ from __future__ import annotations
 import json
 import runpy
 import sys
-from pathlib import Path
 
 import can
 
 from sparc_quad.cli import main
 from tests.can_util import virtual_rig
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.paths import ROOT
 
 
 def _motors(channel, *args):

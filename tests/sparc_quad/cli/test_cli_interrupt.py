@@ -13,8 +13,7 @@ from pathlib import Path
 import pytest
 
 from sparc_quad.cli.output import atomic_dir
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.paths import ROOT
 
 
 def _previous_result(out: Path) -> None:

@@ -3,16 +3,15 @@ dependent regressor column, and the plant file applies a link correction (refusi
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from sparc_quad.gap.base_params import BaseParameters, regressor
 from sparc_quad.gap.robot import Robot
 from sparc_quad.sim.plant_effects import Effect, PlantEffects, PlantEffectsError
+from tests.paths import DATA
 
-URDF = Path(__file__).parent / "data" / "staubli_tx40" / "tx40_mdh_modified.urdf"
+URDF = DATA / "staubli_tx40" / "tx40_mdh_modified.urdf"
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 
 

@@ -3,8 +3,6 @@ project's reader, and consistent with itself and with the Panda URDF of example-
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy import signal
@@ -12,8 +10,9 @@ from scipy import signal
 from sparc_quad.gap import import_panda as ip
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import load_trial
+from tests.paths import DATA
 
-SOURCE = Path(__file__).parent / "data" / "franka_panda" / "source"
+SOURCE = DATA / "franka_panda" / "source"
 
 
 @pytest.fixture(scope="module")

@@ -11,14 +11,13 @@ held-out block."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from sparc_quad.gap import import_tx40 as im
 from sparc_quad.gap.workflow import run
+from tests.paths import DATA as TEST_DATA
 
-DATA = Path(__file__).parent / "data" / "staubli_tx40"
+DATA = TEST_DATA / "staubli_tx40"
 FRICTION = {"coulomb_friction", "viscous_friction", "stribeck_friction"}
 MAIN = ("joint_1", "joint_2", "joint_3", "joint_4")
 

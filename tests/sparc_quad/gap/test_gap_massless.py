@@ -14,7 +14,7 @@ from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.synth import synth
 from sparc_quad.gap.workflow import run
 from sparc_quad.sim.plant_effects import PlantEffects
-from tests.test_gap_workflow import CHAIN
+from tests.sparc_quad.gap.test_gap_workflow import CHAIN
 
 FLANGE = CHAIN.replace("</robot>", """  <joint name="flange" type="revolute">
     <parent link="fore"/><child link="tool"/>

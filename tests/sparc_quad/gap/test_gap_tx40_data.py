@@ -14,8 +14,9 @@ from scipy import signal
 from sparc_quad.gap import import_tx40 as im
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import load_trial
+from tests.paths import DATA as TEST_DATA
 
-DATA = Path(__file__).parent / "data" / "staubli_tx40"
+DATA = TEST_DATA / "staubli_tx40"
 URDF = DATA / im.URDF_NAME
 WINDOWS = ((0.0, 4.0), (4.0, 8.0))  # what README.md says tx40_00/tx40_01 are
 

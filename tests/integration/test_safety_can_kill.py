@@ -16,13 +16,11 @@ import os
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
 from tests.node_netns import unshare_prefix
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.paths import ROOT
 
 SCRIPT = textwrap.dedent("""
     import json, os, signal, subprocess, sys, threading, time

@@ -8,7 +8,6 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -16,8 +15,8 @@ from sparc_quad.study import executors
 from sparc_quad.study.records import atomic_write_text, code_version, read_record, write_record
 from sparc_quad.study.runner import run_study
 from sparc_quad.study.spec import parse_spec
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 TINY = {
     "study": {"gait": "raibert", "duration": 0.6, "seeds": [0], "speeds": [0.9]},
     "grid": {"spine": ["impedance", "rigid"], "kx": [300, 1200]},

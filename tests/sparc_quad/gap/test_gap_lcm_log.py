@@ -1,7 +1,8 @@
 """The gap workflow reads an `lcm-logger` file of a spine-node session directly (issue 5).
 
 - A real session: `spine-node` and `bench-robot` as separate processes on UDP multicast in a network
-  namespace, recorded by `lcm-logger` (the harness of `tests/test_node_lcm_netns.py`, reused as is); the
+  namespace, recorded by `lcm-logger` (the harness of
+  `tests/integration/test_node_lcm_netns.py`, reused as is); the
   log loads as a trial whose columns are exactly the spine states the node published.
 - Hand-made logs: a truncated, a wrong-fingerprint and a non-finite spine state are each rejected with an
   error naming the file and the event number; unrelated channels are skipped.

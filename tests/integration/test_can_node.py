@@ -18,6 +18,7 @@ from sparc_quad.robot_side.can import run_node_over_can
 from spine_module import params as P
 from spine_module.buses.cybergear import load_config
 from spine_module.messages import Fault, Mode
+from tests.paths import ROOT
 
 
 @pytest.mark.parametrize("torque_mode", ["operation", "current"])
@@ -125,13 +126,12 @@ def test_spine_node_motors_can_cli_sigterm(tmp_path):
     import shutil
     import subprocess
     import sys
-    from pathlib import Path
 
     import can
 
     if shutil.which("unshare") is None or subprocess.run(["unshare", "-rn", "true"]).returncode != 0:
         pytest.skip("cannot make a network namespace")
-    root = Path(__file__).resolve().parents[1]
+    root = ROOT
     script, log = tmp_path / "node_cli.py", tmp_path / "session.blf"
     script.write_text(NODE_CLI)
     proc = subprocess.run(["unshare", "-rn", sys.executable, str(script), str(log)], cwd=root,

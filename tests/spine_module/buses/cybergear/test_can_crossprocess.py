@@ -14,11 +14,11 @@ import shutil
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.paths import ROOT
+
 GROUP = "239.74.163.2"
 
 DRIVER = f"""

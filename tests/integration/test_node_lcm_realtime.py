@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import shlex
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,8 +18,8 @@ from spine_module.messages import Fault, Mode
 from spine_module.node import NodeConfig
 from spine_module.safety import SafetyConfig
 from tests.node_netns import run_in_netns, unshare_prefix
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 K, PERIOD = 500.0, 2.0
 
 pytestmark = [pytest.mark.slow, pytest.mark.netns,

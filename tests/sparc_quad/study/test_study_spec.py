@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
 from sparc_quad.study.records import canonical, code_version, trial_hash
 from sparc_quad.study.spec import SpecError, load_spec, parse_spec
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.paths import ROOT
 
 
 def spec(**over):

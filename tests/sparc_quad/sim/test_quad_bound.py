@@ -8,6 +8,7 @@ import pytest
 from sparc_quad.sim.bound_run import BoundConfig, run_bound, write_outputs
 from sparc_quad.sim.quadruped_world import Estimator, ImuConfig
 from sparc_quad.sim.spine_drive import SpineGains
+from tests.paths import ROOT
 
 
 @pytest.fixture(scope="module")
@@ -69,9 +70,8 @@ def test_outputs_written(bound3, tmp_path):
 @pytest.mark.slow
 def test_twenty_second_stability_grid():
     import importlib.util
-    from pathlib import Path
 
-    script = Path(__file__).parent.parent / "bench" / "bound_grid.py"
+    script = ROOT / "bench" / "bound_grid.py"
     spec = importlib.util.spec_from_file_location("bound_grid", script)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

@@ -15,7 +15,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import can
 import numpy as np
@@ -25,8 +24,7 @@ from spine_module.buses.base import MotorBusError, MotorCommand
 from spine_module.buses.cybergear import CanMotorBus
 from spine_module.buses.cybergear import protocol as P
 from tests.can_util import rig_config, stops_to, virtual_rig, wait_for
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.paths import ROOT
 
 
 def _control_loop(mb: CanMotorBus, cycles: int = 400, during=None) -> MotorBusError | None:
