@@ -60,6 +60,11 @@ class BoundParams:
     friction_use: float = 0.6  # horizontal/vertical stance force ratio allowed
     start_s: float = 0.3  # stand still this long before the first stride
     accel_m_s2: float = 0.5  # target speed ramps up at this rate
+    yaw_target_max_rad: float = 0.2  # the lateral-drift yaw target is clipped to +-this
+    touchdown_max_m: float = 0.12  # Raibert touchdown point clipped to +-this fore-aft of the hip
+    pitch_arm_min_m: float = 0.02  # no pitch force from a pair whose moment arm about the COM is shorter
+    touchdown_sink_m: float = 0.01  # the swing ends this far below the ground, so the foot lands
+    stand_damping_1_s: float = 2.0  # before the start: horizontal stance force -m * this * vx, 1/s
 
     def duty_at(self, speed_m_s: float) -> float:
         if self.duty is not None:
@@ -190,7 +195,7 @@ class BoundController:
         roll, yaw = w.roll, w.yaw
         wx, _, wz = w.base_omega
         yaw_d = -p.lateral_gain * w.base_pos[1]
-        yaw_d = max(-0.2, min(0.2, yaw_d))
+        yaw_d = max(-p.yaw_target_max_rad, min(p.yaw_target_max_rad, yaw_d))
         d_roll = p.roll_kp * roll + p.roll_kd * wx
         d_yaw = p.yaw_kp * (yaw - yaw_d) + p.yaw_kd * wz
         kin = {}
@@ -231,7 +236,7 @@ class BoundController:
             stance = frac is not None
             self.stance_flags[pair] = stance
             r_x = hx - com_x  # moment arm of this pair's vertical force about the COM
-            dfz_pitch = -tau_pitch / r_x if abs(r_x) > 0.02 else 0.0
+            dfz_pitch = -tau_pitch / r_x if abs(r_x) > p.pitch_arm_min_m else 0.0
             for leg in (left, right):
                 st = w.leg_state(leg)
                 meta = self.legs[leg]
@@ -248,7 +253,10 @@ class BoundController:
                     fz = m_pair * (g + a_d + p.height_kp * (z_d - height) + p.height_kd * (dz_d - vz))
                     fz += dfz_pitch
                     fz = max(0.0, 0.5 * fz - side * 0.5 * d_roll)
-                    fx = 0.5 * m_pair * p.speed_gain * (v_d - vx) if running else -0.5 * m_pair * 2.0 * vx
+                    if running:
+                        fx = 0.5 * m_pair * p.speed_gain * (v_d - vx)
+                    else:
+                        fx = -0.5 * m_pair * p.stand_damping_1_s * vx
                     fx += side * 0.5 * d_yaw * (fz > 0.0)
                     lim = p.friction_use * fz
                     fx = max(-lim, min(lim, fx))
@@ -270,7 +278,7 @@ class BoundController:
                         self.liftoff[leg] = (c * fx_b + s * fz_b, -s * fx_b + c * fz_b)
                     x_lo, z_lo = self.liftoff[leg]
                     x_td = vx * t_stance / 2.0 + p.raibert_gain_s * (vx - self.v_target)
-                    x_td = max(-0.12, min(0.12, x_td))
+                    x_td = max(-p.touchdown_max_m, min(p.touchdown_max_m, x_td))
                     blend = 0.5 * (1.0 - math.cos(math.pi * sw_frac))
                     tx = x_lo + (x_td - x_lo) * blend
                     # clearance above the ground under the target, measured from the actual hip height
@@ -278,7 +286,7 @@ class BoundController:
                     clear = (
                         lo_clear * (1.0 - sw_frac)
                         + p.step_height_m * math.sin(math.pi * sw_frac)
-                        - 0.01 * sw_frac
+                        - p.touchdown_sink_m * sw_frac
                     )
                     tz = -height + tx * tan_s + clear
                     # to the body frame

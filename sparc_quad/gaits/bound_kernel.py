@@ -29,9 +29,13 @@ LEGS = ("HL", "HR", "FL", "FR")
  P_PITCH_KD, P_KI, P_INT_MAX, P_HEIGHT, P_H_KP, P_H_KD, P_SPEED_GAIN, P_FRIC, P_BODY_KP, P_BODY_KD, P_RAIBERT,
  P_STEP_H, P_SW_KP, P_SW_KD, P_AB_KP, P_AB_KD, P_DUTY_FIXED, P_DUTY, P_DUTY_SLOW, P_DUTY_FAST, P_DUTY_LO,
  P_DUTY_HI, P_DT, P_SLOPE, P_MASS, P_SHARE_HIND, P_SHARE_FRONT, P_TAU_LIM, P_LX_HIND, P_LX_FRONT, P_LINK0,
- P_LINK1, P_LINK2, P_G, P_A_SPEED, P_A_HIP, P_NJ) = range(48)
-P_LEGS = 48
-LEG_STRIDE = 6  # thigh m, shank m, side (+1 left), place of HAA, HFE, KFE in jq/jdq
+ P_LINK1, P_LINK2, P_G, P_A_SPEED, P_A_HIP, P_NJ, P_YAW_D_MAX, P_TD_MAX, P_ARM_MIN, P_TD_SINK,
+ P_STAND_D) = range(53)
+P_LEGS = 53
+# per-leg slots from P_LEGS + LEG_STRIDE * leg: thigh m, shank m, side (+1 left), and the places of HAA, HFE,
+# KFE in jq/jdq
+(L_THIGH, L_SHANK, L_SIDE, L_HAA, L_HFE, L_KFE) = range(6)
+LEG_STRIDE = 6
 # st slots
 (S_V_TARGET, S_V_INT, S_PHASE, S_DUTY, S_SPEED_Y, S_HIPVX_H, S_HIPVX_F, S_HIPVZ_H, S_HIPVZ_F,
  S_PREV_SET_H, S_PREV_SET_F, S_PREV_HX_H, S_PREV_HZ_H, S_PREV_HX_F, S_PREV_HZ_F, S_STANCE_H, S_STANCE_F,
@@ -73,7 +77,7 @@ def bound_step(prm: np.ndarray, st: np.ndarray, inp: np.ndarray, out: np.ndarray
     roll, yaw = inp[I_ROLL], inp[I_YAW]
     wx, wz = inp[I_WX], inp[I_WZ]
     yaw_d = -prm[P_LAT] * inp[I_Y]
-    yaw_d = max(-0.2, min(0.2, yaw_d))
+    yaw_d = max(-prm[P_YAW_D_MAX], min(prm[P_YAW_D_MAX], yaw_d))
     d_roll = prm[P_ROLL_KP] * roll + prm[P_ROLL_KD] * wx
     d_yaw = prm[P_YAW_KP] * (yaw - yaw_d) + prm[P_YAW_KD] * wz
     a_hip = prm[P_A_HIP]
@@ -144,12 +148,12 @@ def bound_step(prm: np.ndarray, st: np.ndarray, inp: np.ndarray, out: np.ndarray
                 stance = False
         st[S_STANCE_H + pair] = 1.0 if stance else 0.0
         r_x = hx - com_x
-        dfz_pitch = -tau_pitch / r_x if abs(r_x) > 0.02 else 0.0
+        dfz_pitch = -tau_pitch / r_x if abs(r_x) > prm[P_ARM_MIN] else 0.0
         for side_k in range(2):
             leg = 2 * pair + side_k
             o = P_LEGS + LEG_STRIDE * leg
-            l1, l2, side = prm[o], prm[o + 1], prm[o + 2]
-            i_haa, i_hfe, i_kfe = int(prm[o + 3]), int(prm[o + 4]), int(prm[o + 5])
+            l1, l2, side = prm[o + L_THIGH], prm[o + L_SHANK], prm[o + L_SIDE]
+            i_haa, i_hfe, i_kfe = int(prm[o + L_HAA]), int(prm[o + L_HFE]), int(prm[o + L_KFE])
             haa, h, k = inp[I_JQ + i_haa], inp[I_JQ + i_hfe], inp[I_JQ + i_kfe]
             dhaa, dh, dk = inp[I_JQ + nj + i_haa], inp[I_JQ + nj + i_hfe], inp[I_JQ + nj + i_kfe]
             # leg_fk
@@ -179,7 +183,7 @@ def bound_step(prm: np.ndarray, st: np.ndarray, inp: np.ndarray, out: np.ndarray
                 if running:
                     fx = 0.5 * m_pair * prm[P_SPEED_GAIN] * (v_d - vx)
                 else:
-                    fx = -0.5 * m_pair * 2.0 * vx
+                    fx = -0.5 * m_pair * prm[P_STAND_D] * vx
                 fx += side * 0.5 * d_yaw * (1.0 if fz > 0.0 else 0.0)
                 lim = prm[P_FRIC] * fz
                 fx = max(-lim, min(lim, fx))
@@ -199,12 +203,12 @@ def bound_step(prm: np.ndarray, st: np.ndarray, inp: np.ndarray, out: np.ndarray
                     st[lo_slot + 2] = -s * fx_b + c * fz_b
                 x_lo, z_lo = st[lo_slot + 1], st[lo_slot + 2]
                 x_td = vx * t_stance / 2.0 + prm[P_RAIBERT] * (vx - v_target)
-                x_td = max(-0.12, min(0.12, x_td))
+                x_td = max(-prm[P_TD_MAX], min(prm[P_TD_MAX], x_td))
                 blend = 0.5 * (1.0 - math.cos(math.pi * sw_frac))
                 tx = x_lo + (x_td - x_lo) * blend
                 lo_clear = z_lo + height - x_lo * tan_s
                 clear = (lo_clear * (1.0 - sw_frac) + prm[P_STEP_H] * math.sin(math.pi * sw_frac)
-                         - 0.01 * sw_frac)
+                         - prm[P_TD_SINK] * sw_frac)
                 tz = -height + tx * tan_s + clear
                 tbx = c * tx - s * tz
                 tbz = s * tx + c * tz
@@ -236,6 +240,8 @@ def pack(ctrl) -> tuple[np.ndarray, np.ndarray]:
         P_SHARE_HIND: ctrl.share["hind"], P_SHARE_FRONT: ctrl.share["front"], P_TAU_LIM: ctrl.tau_limit,
         P_LX_HIND: ctrl.lx[ctrl.PAIRS["hind"][0]], P_LX_FRONT: ctrl.lx[ctrl.PAIRS["front"][0]],
         P_G: P.GRAVITY_M_S2, P_A_SPEED: ctrl.speed_f.a, P_A_HIP: ctrl.hip_vel["hind"].a, P_NJ: nj,
+        P_YAW_D_MAX: p.yaw_target_max_rad, P_TD_MAX: p.touchdown_max_m, P_ARM_MIN: p.pitch_arm_min_m,
+        P_TD_SINK: p.touchdown_sink_m, P_STAND_D: p.stand_damping_1_s,
     }
     links = P.DEFAULT_SPINE.links
     for j in range(3):
@@ -251,8 +257,9 @@ def pack(ctrl) -> tuple[np.ndarray, np.ndarray]:
     for n, leg in enumerate(LEGS):
         meta = ctrl.legs[leg]
         o = P_LEGS + LEG_STRIDE * n
-        prm[o:o + 3] = (meta["thigh_m"], meta["shank_m"], 1.0 if leg[1] == "L" else -1.0)
-        prm[o + 3:o + 6] = [pim[j] for j in w.leg_idx[leg]]
+        prm[o + L_THIGH], prm[o + L_SHANK] = meta["thigh_m"], meta["shank_m"]
+        prm[o + L_SIDE] = 1.0 if leg[1] == "L" else -1.0
+        prm[o + L_HAA], prm[o + L_HFE], prm[o + L_KFE] = (pim[j] for j in w.leg_idx[leg])
     st = np.zeros(STATE_SIZE)
     st[S_V_TARGET], st[S_V_INT], st[S_PHASE], st[S_DUTY] = ctrl.v_target, ctrl.v_int, ctrl.phase, ctrl.duty
     st[S_STANCE_H] = st[S_STANCE_F] = 1.0
