@@ -34,8 +34,8 @@ def grid(duration: float) -> list[dict]:
                               rigid_spine=kind == "rigid")
             m = run_bound(cfg).metrics
             row = {"spine": kind, "k_x": kx, "d_x": dx, "target_speed": speed, "fell": m["fell"],
-                   "fall_time_s": m["fall_time_s"], "mean_speed_m_s": m.get("mean_speed_m_s"),
-                   "cost_of_transport": m.get("cost_of_transport"),
+                   "fall_time_s": m["fall_time_s"], "speed_m_s": m.get("speed_m_s"),
+                   "cot_abs_total": m.get("cot_abs_total"),
                    "peak_spine_torque_nm": m.get("peak_spine_torque_nm")}
             print(json.dumps(row), flush=True)
             rows.append(row)

@@ -42,7 +42,7 @@ def grid(duration: float) -> list[dict]:
         row = {"kp": kp, "kd": kd, "step_length_m": step, "step_height_m": height, "frequency_hz": f,
                "direction": direction, "fell": m["fell"], "fall_time_s": m["fall_time_s"],
                "fall_reason": m["fall_reason"], "x_end_m": float(r.column("x")[-1]),
-               "mean_speed_m_s": m.get("mean_speed_m_s")}
+               "speed_m_s": m.get("speed_m_s")}
         print(json.dumps(row), flush=True)
         rows.append(row)
     return rows

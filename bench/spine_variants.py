@@ -13,8 +13,8 @@ from pathlib import Path
 
 from sparc_quad.study.trial import run_trial
 
-KEYS = ("fell", "mean_speed_m_s", "cot_pos", "cot_pos_legs", "cot_pos_spine", "cot_abs", "cot_net",
-        "cot_elec", "stride_length_m", "spine_x_amplitude_m", "spine_x_dominant_hz",
+KEYS = ("fell", "speed_m_s", "cot_pos_total", "cot_pos_legs", "cot_pos_spine", "cot_abs_total",
+        "cot_net_total", "cot_elec_total", "stride_length_m", "spine_x_amplitude_m", "spine_x_dominant_hz",
         "spine_work_per_stride_j", "peak_spine_torque_nm", "spine_torque_rms_nm", "n_strides")
 
 

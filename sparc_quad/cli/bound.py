@@ -169,8 +169,8 @@ def run(args: argparse.Namespace) -> int:
         if old_handler is not None:
             signal.signal(signal.SIGINT, old_handler)
     m = result.metrics
-    summary = {k: m.get(k) for k in ("fell", "fall_time_s", "fall_reason", "mean_speed_m_s", "cot_pos",
-                                      "cost_of_transport", "stride_frequency_hz", "stride_length_m",
+    summary = {k: m.get(k) for k in ("fell", "fall_time_s", "fall_reason", "speed_m_s", "cot_pos_total",
+                                      "cot_abs_total", "stride_frequency_hz", "stride_length_m",
                                       "peak_spine_torque_nm", "window_ok")}
     print(json.dumps(summary, indent=2, default=float))
     if not m.get("window_ok", False):

@@ -20,7 +20,7 @@ import numpy as np
 
 from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
-from sparc_quad.sim import gait_metrics
+from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
@@ -228,7 +228,7 @@ def run_bound(
             if observe_spine is not None:
                 observe_spine(t, float(spine.task_pose[0]))
             # log the state the torques were computed from: one row, one assignment; the power and peak
-            # columns are filled from the logged torques and rates after the loop (_derived_columns)
+            # columns are filled from the logged torques and rates after the loop (metrics.derived_columns)
             q_sp = world.q_spine
             cf = world.contact_force
             flags = gait.stance_flags
@@ -266,17 +266,22 @@ def run_bound(
         wall = time.perf_counter() - t0
         physics_wall = world.physics_wall_s
         mass = world.total_mass
+        limits = world.meta
         world.close()
         spine.close()
     series = log[:i]
-    _derived_columns(series)
+    metrics_table.derived_columns(series)
     # metrics end at the first fall: what a fallen robot does afterwards (stop_on_fall=False) is no gait
     measured = series[: max(1, round(fall_t / dt))] if fell and fall_t is not None else series
-    metrics = compute_metrics(measured, cfg, mass, fell, fall_t, first_reason)
     drive = getattr(spine, "drive", None)
     actuated = bool(getattr(drive, "actuated", True))  # the node and LCM paths are motor-rendered
-    metrics.update(gait_metrics.study_metrics(measured, cfg, mass, actuated=actuated,
-                                              t_start=metrics["window_s"][0]))
+    t_start = window_start_s(cfg)
+    ctx = metrics_table.Context(
+        dt_s=dt, mass_kg=mass, gravity_m_s2=cfg.world.gravity_m_s2, slope_rad=cfg.world.slope_rad,
+        leg_torque_limit_nm=float(limits["leg_torque_limit_nm"]),
+        spine_torque_limit_nm=float(limits["spine_torque_limit_nm"]), spine_actuated=actuated)
+    facts = run_facts(series, cfg, mass, fell, fall_t, first_reason, t_start, actuated)
+    metrics = metrics_table.merge_disjoint(facts, metrics_table.measure(measured, ctx, t_start))
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
     metrics["spine_driver"] = getattr(drive, "name", type(spine).__name__)
@@ -284,30 +289,6 @@ def run_bound(
     metrics["gait_backend"] = "numba" if type(gait).__name__ == "CompiledBoundController" else "python"
     node_states = spine.states_arrays() if hasattr(spine, "states_arrays") else None
     return BoundResult(cfg, metrics, series, wall, frames, node_states)
-
-
-_TAU0 = COLUMNS.index("tau_HL_haa")
-_DQ0 = COLUMNS.index("dq_HL_haa")
-_LEG_P, _SPINE_P, _LEG_M = (COLUMNS.index(c) for c in ("leg_power_w", "spine_power_w", "leg_tau_max"))
-_SPINE_TAU, _SPINE_DQ = COLUMNS.index("tau2"), COLUMNS.index("dq2")
-
-
-def _derived_columns(s: np.ndarray) -> None:
-    """Leg power sum |tau dq| over the 12 leg joints, spine power over q2..q4, max |leg torque| of HFE and
-    KFE: from the logged torques and rates, column-wise, in the order the per-step sums were taken."""
-    leg_p = np.zeros(len(s))
-    leg_m = np.zeros(len(s))
-    for leg in range(4):
-        c = 3 * leg
-        ta, tb, tc = (s[:, _TAU0 + c + j] for j in range(3))
-        leg_p += (np.abs(ta * s[:, _DQ0 + c]) + np.abs(tb * s[:, _DQ0 + c + 1])
-                  + np.abs(tc * s[:, _DQ0 + c + 2]))
-        leg_m = np.maximum(np.maximum(leg_m, np.abs(tb)), np.abs(tc))
-    s[:, _LEG_P] = leg_p
-    s[:, _LEG_M] = leg_m
-    tau, dq = s[:, _SPINE_TAU:_SPINE_TAU + 3], s[:, _SPINE_DQ:_SPINE_DQ + 3]
-    s[:, _SPINE_P] = (np.abs(tau[:, 0] * dq[:, 0]) + np.abs(tau[:, 1] * dq[:, 1])
-                      + np.abs(tau[:, 2] * dq[:, 2]))
 
 
 def startup_s(cfg: BoundConfig) -> float:
@@ -322,88 +303,29 @@ def startup_s(cfg: BoundConfig) -> float:
     return gp.start_s + ramp
 
 
-def _touchdowns(contact: np.ndarray) -> np.ndarray:
-    c = contact > 0.5
-    return np.flatnonzero(c[1:] & ~c[:-1]) + 1
+def window_start_s(cfg: BoundConfig) -> float:
+    """Where the metrics' steady window starts: start-up plus `settle_s`, at most half the run."""
+    return min(startup_s(cfg) + cfg.settle_s, 0.5 * cfg.duration_s)
 
 
-def compute_metrics(
-    s: np.ndarray, cfg: BoundConfig, mass: float, fell: bool, fall_t: float | None, reason: str | None
-) -> dict:
-    dt = cfg.world.dt_s
-    g = 9.81
-    col = {name: s[:, k] for k, name in enumerate(COLUMNS)}
-    gp = cfg.gait
-    t_start = min(startup_s(cfg) + cfg.settle_s, 0.5 * cfg.duration_s)
-    w = col["t"] >= t_start
-    out: dict = {
+def run_facts(s: np.ndarray, cfg: BoundConfig, mass: float, fell: bool, fall_t: float | None,
+              reason: str | None, t_start: float, actuated: bool) -> dict:
+    """What the run was and how it ended (not metrics: `sparc_quad.metrics.TABLE` holds those)."""
+    return {
         "fell": bool(fell),
         "fall_time_s": fall_t,
         "fall_reason": reason,
-        "duration_s": float(s[-1, 0] + dt) if len(s) else 0.0,
+        "simulated_s": float(s[-1, 0] + cfg.world.dt_s) if len(s) else 0.0,
         "window_s": [float(t_start), float(s[-1, 0]) if len(s) else 0.0],
         "mass_kg": mass,
         "slope_rad": cfg.world.slope_rad,
-        "target_speed_m_s": gp.speed_m_s,
-        "gait_frequency_hz": gp.frequency_hz,
+        "target_speed_m_s": cfg.gait.speed_m_s,
         "rigid_spine": variant_of(cfg) == "rigid",
         "spine_variant": variant_of(cfg),
+        "spine_actuated": actuated,
         "spine_k": list(cfg.spine.k),
         "spine_d": list(cfg.spine.d),
     }
-    if w.sum() < 10:
-        out["note"] = "too short for gait metrics"
-        return out
-    t = col["t"][w]
-    span = t[-1] - t[0] + dt
-    dist_x = col["x"][w][-1] - col["x"][w][0]
-    dist = dist_x / math.cos(cfg.world.slope_rad)  # along the ground
-    speed = dist / span
-    p_spine = col["spine_power_w"][w]
-    p_legs = col["leg_power_w"][w]
-    energy = float((p_spine.sum() + p_legs.sum()) * dt)
-    out["mean_speed_m_s"] = float(speed)
-    out["distance_m"] = float(dist)
-    out["cost_of_transport"] = energy / (mass * g * abs(dist)) if abs(dist) > 1e-6 else None
-    out["cost_of_transport_note"] = ("sum over all 15 joints of |tau * dq| integrated, / (m g distance) "
-                                     "(= cot_abs for the motor-rendered spine)")
-    out["mean_power_w"] = {"legs": float(p_legs.mean()), "spine": float(p_spine.mean())}
-    tds = _touchdowns(col["contact_HL"][w])
-    if len(tds) >= 2:
-        freq = (len(tds) - 1) / ((tds[-1] - tds[0]) * dt)
-        out["stride_frequency_hz"] = float(freq)
-        out["stride_length_m"] = float(speed / freq)
-    else:
-        out["stride_frequency_hz"] = None
-        out["stride_length_m"] = None
-    out["duty_factor"] = {k: float(col[f"contact_{k}"][w].mean()) for k in ("HL", "HR", "FL", "FR")}
-
-    def amp(x: np.ndarray) -> float:
-        lo, hi = np.percentile(x, [2.5, 97.5])
-        return float(0.5 * (hi - lo))
-
-    out["pitch_amplitude_rad"] = {"hind": amp(col["q1_true"][w]), "front": amp(col["pitch_front"][w])}
-    out["pitch_mean_rad"] = {
-        "hind": float(col["q1_true"][w].mean()),
-        "front": float(col["pitch_front"][w].mean()),
-    }
-    out["spine_excursion"] = {
-        name: {
-            "min": float(col[f"spine_{name}"][w].min()),
-            "max": float(col[f"spine_{name}"][w].max()),
-            "range": float(np.ptp(col[f"spine_{name}"][w])),
-            "std": float(col[f"spine_{name}"][w].std()),
-        }
-        for name in ("x", "z", "theta")
-    }
-    tau = np.abs(s[:, 18:21])
-    out["peak_spine_torque_nm"] = float(tau[w].max())
-    out["peak_spine_torque_per_joint_nm"] = [float(v) for v in tau[w].max(axis=0)]
-    out["spine_saturation_fraction"] = float((tau[w] >= 11.999).any(axis=1).mean())
-    out["peak_spine_power_w"] = float(p_spine.max())
-    out["peak_leg_torque_nm"] = float(col["leg_tau_max"][w].max())
-    out["lateral_drift_m"] = float(col["y"][-1])
-    return out
 
 
 def config_dict(cfg: BoundConfig) -> dict:

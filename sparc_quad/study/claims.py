@@ -12,6 +12,7 @@ favours it (winner's curse): C1-C3 use the best cell's CI as it is, so read them
 
 from __future__ import annotations
 
+from sparc_quad.metrics import COTS
 from sparc_quad.study.stats import wilson
 
 HEADLINE = "cot_pos_total"
@@ -19,12 +20,7 @@ REF_SPEED_M_S = 0.9
 C1_K = (800.0, 1200.0)
 C2_K, C2_D, C2_STRIDE_M = (500.0, 800.0), (8.0, 20.0), (0.070, 0.080)
 C3_SAVING_PCT = -21.0
-POWER_METRICS = (
-    ("cot_pos_total", "CoT_pos"),
-    ("cot_abs_total", "CoT_abs"),
-    ("cot_net_total", "CoT_net"),
-    ("cot_elec_total", "CoT_elec"),
-)
+POWER_METRICS = tuple((f"cot_{c}_total", f"CoT_{c}") for c in COTS)  # C3 on each energy definition
 COMPLIANT = ("impedance", "passive")
 BASELINES = ("rigid", "rigid-impedance")
 

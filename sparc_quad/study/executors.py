@@ -25,14 +25,8 @@ class ExecutorUnavailable(RuntimeError):
 
 
 def trial_function():
-    """The gait-family trial function if the package has it, else the run_bound stand-in."""
-    try:
-        mod = importlib.import_module("sparc_quad.study.trial")
-    except ModuleNotFoundError as exc:
-        if exc.name != "sparc_quad.study.trial":
-            raise
-        mod = importlib.import_module("sparc_quad.study.bound_adapter")
-    return mod.run_trial
+    """The study's trial function (sparc_quad.study.trial.run_trial)."""
+    return importlib.import_module("sparc_quad.study.trial").run_trial
 
 
 def execute(config: dict, version: str, trial_hash: str) -> dict:

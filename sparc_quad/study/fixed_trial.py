@@ -11,6 +11,7 @@ from dataclasses import replace
 
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
+from sparc_quad.metrics import merge_disjoint
 from sparc_quad.sim.bound_run import BoundConfig, run_bound
 from sparc_quad.sim.quadruped_world import WorldConfig
 from sparc_quad.sim.seed_variation import perturbation
@@ -135,11 +136,9 @@ def run_fixed_trial(config: dict) -> dict:
     cfg = bound_config(config)
     result = run_bound(cfg)
     m = result.metrics
-    out = _flat({k: v for k, v in m.items() if k != "strides"})
-    for key in ("mean_speed_m_s", "distance_m", "cost_of_transport"):  # absent when the window was empty
-        out.setdefault(key, float("nan"))
-    out["strides"] = m.get("strides", [])
-    out.update(perturbation(int(config.get("seed", 0))).as_metrics())
+    out = merge_disjoint(_flat({k: v for k, v in m.items() if k != "strides"}),
+                         perturbation(int(config.get("seed", 0))).as_metrics())
+    out["strides"] = m["strides"]
     out["gait"] = config.get("gait", "raibert")
     out["spine"] = config.get("spine", "impedance")
     out["fall_reason"] = m.get("fall_reason") or ""

@@ -51,12 +51,12 @@ def _decode(u: np.ndarray) -> dict:
 
 def objective(metrics: dict, target_speed: float, duration: float) -> float:
     """CoT_pos, plus penalties: a fall (more the earlier), a mean speed off target by > 0.03 m/s."""
-    cot = metrics.get("cot_pos", float("nan"))
+    cot = metrics.get("cot_pos_total", float("nan"))
     f = cot if isinstance(cot, float) and math.isfinite(cot) and cot > 0 else FALL_PENALTY
     if metrics.get("fell"):
         t = metrics.get("fall_time_s") or 0.0
         f += FALL_PENALTY * (1.0 + (duration - t) / duration)
-    v = metrics.get("mean_speed_m_s", float("nan"))
+    v = metrics.get("speed_m_s", float("nan"))
     err = abs(v - target_speed) if isinstance(v, float) and math.isfinite(v) else 1.0
     if err > SPEED_TOLERANCE_M_S:
         f += SPEED_PENALTY_PER_M_S * (err - SPEED_TOLERANCE_M_S)

@@ -19,21 +19,19 @@ from pathlib import Path
 
 import numpy as np
 
+from sparc_quad.metrics import COTS, GROUPS, TABLE, label
 from sparc_quad.study.records import atomic_write_text, jsonable, read_record
 from sparc_quad.study.spec import SPINE_GAIN_KEYS
 from sparc_quad.study.stats import Estimate, bootstrap_mean, paired_difference, wilson
 
 K_AXIS, D_AXIS = "kx", "dx"
-METRICS = (
-    ("cot_pos_total", "CoT_pos (legs + spine, positive work)"),
-    ("cot_pos_legs", "CoT_pos legs only"),
-    ("cot_abs_total", "CoT_abs (legs + spine, |tau dq|)"),
-    ("cot_net_total", "CoT_net (legs + spine, perfect regeneration)"),
-    ("cot_elec_total", "CoT_elec (legs + spine, with winding losses)"),
-)
+# the costs analysed: the table's whole CoT family (legs, spine, total for pos, abs, net, elec)
+METRICS = tuple(f"cot_{c}_{g}" for c in COTS for g in GROUPS)
 PLOTTED = ("cot_pos_total", "cot_pos_legs", "cot_abs_total")
 EXTRA = ("speed_m_s", "stride_length_m", "stride_frequency_hz")
 BASELINES = ("rigid", "rigid-impedance")
+if not set(PLOTTED + EXTRA) <= set(TABLE):
+    raise ImportError(f"report metrics not in sparc_quad.metrics.TABLE: {set(PLOTTED + EXTRA) - set(TABLE)}")
 
 
 class ReportError(ValueError):
@@ -181,7 +179,7 @@ def analyse(trials: list[Trial], n_boot: int = 2000) -> dict:
         )
         groups[panel_key(cfg)][(spine, gains, cfg.get(K_AXIS), cfg.get(D_AXIS))].append(t)
     # a metric the trials report (even as NaN after a fall), so cells that all fell still show their falls
-    metrics = [m for m, _ in METRICS if any(m in t.metrics for t in ok)]
+    metrics = [m for m in METRICS if any(m in t.metrics for t in ok)]
     cells: list[Cell] = []
     panels = []
     for pkey in sorted(groups, key=repr):
@@ -283,7 +281,7 @@ def _fmt(x: float | None, nd: int = 2) -> str:
 
 
 def _label(metric: str) -> str:
-    return dict(METRICS).get(metric, metric)
+    return label(metric)
 
 
 def plot_heatmap(panel: dict, metric: str, cells: list[Cell], path: Path) -> Path | None:

@@ -11,7 +11,7 @@ over processes or a Dask cluster and cache them by config. The config is a flat 
   `frequency duty step_height stride`; gait A also `step_length adapt_frequency spine_rate_hz schedule`.
 
 The result is a flat dict of floats/bools/str (NaN where undefined) plus `strides`, a list of per-stride
-dicts with the same metric names where meaningful (sparc_quad.sim.gait_metrics).
+dicts with the same metric names where meaningful (sparc_quad.metrics.TABLE).
 """
 
 from __future__ import annotations

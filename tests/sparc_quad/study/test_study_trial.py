@@ -4,19 +4,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from sparc_quad.sim import gait_metrics as GM
+from sparc_quad.metrics import COTS, GROUPS
 from sparc_quad.sim.bound_run import COLUMNS, BoundConfig, run_bound
 from sparc_quad.sim.quadruped_world import WorldConfig
 from sparc_quad.study.trial import run_trial
 from spine_module import params as P
 
-HEADLINE = [f"cot_{c}_{g}" for c in GM.COTS for g in GM.GROUPS] + [
-    "cot_pos", "cot_abs", "cot_net", "cot_elec", "mean_speed_m_s", "stride_length_m", "stride_frequency_hz",
+HEADLINE = [f"cot_{c}_{g}" for c in COTS for g in GROUPS] + [
+    "speed_m_s", "stride_length_m", "stride_frequency_hz",
     "duty_mean", "flight_time_s", "spine_x_amplitude_m", "spine_theta_amplitude_rad", "spine_x_dominant_hz",
     "spine_x_dominant_over_gait", "spine_work_per_stride_j", "peak_leg_torque_nm", "leg_saturation_share",
     "peak_spine_torque_nm", "spine_saturation_share", "spine_torque_rms_nm", "fell", "fall_time_s",
@@ -34,10 +33,10 @@ def test_every_variant_runs_and_returns_every_metric(gait, spine):
     missing = [k for k in HEADLINE if k not in m]
     assert not missing, missing
     assert isinstance(m["strides"], list) and m["strides"]
-    assert {"cot_pos", "speed_m_s", "frequency_hz", "spine_work_j"} <= set(m["strides"][0])
+    assert {"cot_pos_total", "speed_m_s", "stride_frequency_hz", "spine_work_j"} <= set(m["strides"][0])
     assert m["spine"] == spine and m["gait"] == gait
     if spine in ("passive", "rigid"):  # not an actuator: the spine costs nothing
-        assert m["cot_pos_spine"] == 0.0 and m["cot_pos"] == m["cot_pos_legs"]
+        assert m["cot_pos_spine"] == 0.0 and m["cot_pos_total"] == m["cot_pos_legs"]
     else:
         assert m["cot_pos_spine"] > 0.0
 
@@ -61,61 +60,13 @@ def test_locked_rigid_spine_does_not_move():
     assert not r.column("tau2").any()  # no actuator holds it
 
 
-def _synthetic_series(n: int, dt: float, speed: float, freq: float) -> np.ndarray:
-    s = np.zeros((n, len(COLUMNS)))
-    t = np.arange(n) * dt
-    col = {c: k for k, c in enumerate(COLUMNS)}
-    s[:, col["t"]] = t
-    s[:, col["x"]] = speed * t
-    s[:, col["gait_phase"]] = (t * freq) % 1.0
-    s[:, col["gait_frequency_hz"]] = freq
-    s[:, col["tau_HL_hfe"]] = 2.0  # constant 2 N*m
-    s[:, col["dq_HL_hfe"]] = np.sin(2 * np.pi * freq * t)  # P = 2 sin: +, - halves
-    s[:, col["tau2"]] = 1.0
-    s[:, col["dq2"]] = 0.5  # spine P = 0.5 W always positive
-    return s
-
-
-def test_metrics_on_a_hand_built_power_trace():
-    dt, speed, freq, dur = 1e-3, 0.5, 2.0, 3.0
-    n = round(dur / dt)
-    s = _synthetic_series(n, dt, speed, freq)
-    cfg = SimpleNamespace(world=WorldConfig())
-    mass, g = 2.0, P.GRAVITY_M_S2
-    m = GM.study_metrics(s, cfg, mass, actuated=True, t_start=1.0)
-    a = round(1.0 / dt)
-    dist = speed * (n - 1 - a) * dt
-    # legs: 2 sin(w t): positive part integrates to 2 * (1/pi f)... per period 2 * 2/(2 pi f)
-    t = np.arange(a, n) * dt
-    p_leg = 2.0 * np.sin(2 * np.pi * freq * t)
-    e_pos = np.clip(p_leg, 0, None).sum() * dt
-    assert e_pos == pytest.approx(2.0 * 2 * freq * 2.0 / (2 * np.pi * freq), rel=2e-3)  # 2 s of 2 Hz
-    assert m["cot_pos_legs"] == pytest.approx(e_pos / (mass * g * dist), rel=1e-9)
-    assert m["cot_abs_legs"] == pytest.approx(np.abs(p_leg).sum() * dt / (mass * g * dist), rel=1e-9)
-    assert m["cot_net_legs"] == pytest.approx(p_leg.sum() * dt / (mass * g * dist), abs=1e-6)
-    c_leg = P.SOLO12_WINDING.loss_w_per_nm2
-    e_el = np.clip(p_leg + c_leg * 4.0, 0, None).sum() * dt
-    assert m["cot_elec_legs"] == pytest.approx(e_el / (mass * g * dist), rel=1e-9)
-    e_sp = 0.5 * 2.0  # 0.5 W for 2 s
-    assert m["cot_pos_spine"] == pytest.approx(e_sp / (mass * g * dist), rel=1e-3)
-    assert m["cot_pos"] == pytest.approx(m["cot_pos_legs"] + m["cot_pos_spine"], rel=1e-12)
-    assert m["n_strides"] == 3 and m["window_ok"]  # 2 Hz over 2 s: 4 wraps -> 3 complete strides
-    assert m["stride_frequency_hz"] == pytest.approx(2.0, rel=1e-3)
-    assert m["stride_length_m"] == pytest.approx(speed / freq, rel=2e-3)
-    st = m["strides"][0]
-    assert st["spine_work_j"] == pytest.approx(0.5 * 0.5, rel=1e-3)  # one 0.5 s stride at 0.5 W
-    # not an actuator: the same trace costs nothing on the spine, its work is still reported
-    passive = GM.study_metrics(s, cfg, mass, actuated=False, t_start=1.0)
-    assert passive["cot_pos_spine"] == 0.0 and passive["spine_work_j"] == pytest.approx(m["spine_work_j"])
-
-
 def test_seeds_change_the_trial():
-    cot = [run_trial({"gait": "raibert", "duration": 2.0, "seed": s, "settle": 0.2})["cot_pos"]
+    cot = [run_trial({"gait": "raibert", "duration": 2.0, "seed": s, "settle": 0.2})["cot_pos_total"]
            for s in (0, 1, 2)]
     assert len({round(c, 4) for c in cot}) == 3, cot
     a = run_trial({"gait": "raibert", "duration": 1.0, "seed": 3, "settle": 0.2})
     b = run_trial({"gait": "raibert", "duration": 1.0, "seed": 3, "settle": 0.2})
-    assert a["cot_pos"] == b["cot_pos"]  # deterministic per seed
+    assert a["cot_pos_total"] == b["cot_pos_total"]  # deterministic per seed
 
 
 def test_short_window_is_flagged():
@@ -170,9 +121,9 @@ def test_natural_frequency_grows_as_root_k():
 def test_raibert_opt_objective_penalises_falls_and_speed():
     from sparc_quad.study.raibert_opt import objective
 
-    ok = {"cot_pos": 0.8, "fell": False, "mean_speed_m_s": 0.61}
+    ok = {"cot_pos_total": 0.8, "fell": False, "speed_m_s": 0.61}
     assert objective(ok, 0.6, 4.0) == pytest.approx(0.8)
-    assert objective({**ok, "mean_speed_m_s": 0.7}, 0.6, 4.0) > 0.8 + 3.0  # 7 cm/s off target
+    assert objective({**ok, "speed_m_s": 0.7}, 0.6, 4.0) > 0.8 + 3.0  # 7 cm/s off target
     assert objective({**ok, "fell": True, "fall_time_s": 1.0}, 0.6, 4.0) > 10.0
     early = objective({**ok, "fell": True, "fall_time_s": 0.5}, 0.6, 4.0)
     assert early > objective({**ok, "fell": True, "fall_time_s": 3.5}, 0.6, 4.0)
@@ -191,7 +142,7 @@ def test_raibert_opt_tunes_then_runs_and_a_tuned_gait_skips_the_search():
     tuned = optimise_cell({**cfg, "seed": 5})  # same cell: cached, same answer
     assert tuned["frequency"] == m["opt_frequency"]
     again = run_trial({**cfg, "tuned": tuned})
-    assert again["cot_pos"] == m["cot_pos"]
+    assert again["cot_pos_total"] == m["cot_pos_total"]
     with pytest.raises(ValueError, match="tuned"):
         run_trial({**cfg, "tuned": {"wobble": 1.0}})
 
@@ -209,8 +160,8 @@ def test_a_trial_that_falls_early_reports_every_metric_as_nan_and_stops_measurin
         br.fall_reason = real
     missing = [k for k in HEADLINE if k not in m]
     assert not missing, missing
-    assert m["fell"] and m["fall_reason"] == "scripted" and math.isnan(m["cot_pos"])
-    assert math.isnan(m["mean_speed_m_s"]) and m["strides"] == []
+    assert m["fell"] and m["fall_reason"] == "scripted" and math.isnan(m["cot_pos_total"])
+    assert math.isnan(m["speed_m_s"]) and m["strides"] == []
 
 
 @pytest.mark.filterwarnings("ignore:steady window")
