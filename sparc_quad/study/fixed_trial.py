@@ -19,8 +19,8 @@ from sparc_quad.sim.spine_drive import SPINE_VARIANTS, SpineGains, SpineSchedule
 from spine_module import params as P
 
 GAITS = ("sine", "raibert", "raibert-opt")
-_COMMON = {"gait", "spine", "duration", "seed", "slope", "kx", "kz", "kth", "ktheta", "dx", "dz", "dth",
-           "dtheta", "frequency", "step_height", "settle", "friction_comp", "host"}
+_COMMON = {"gait", "spine", "duration", "seed", "slope", "latency_steps", "kx", "kz", "kth", "ktheta", "dx",
+           "dz", "dth", "dtheta", "frequency", "step_height", "settle", "friction_comp", "host"}
 _RAIBERT = {"speed", "duty", "stride", "body_kp", "body_kd", "phase_offset", "raibert_gain",
             "popsize", "iterations", "opt_duration", "opt_seed", "tuned"}
 _SINE = {"step_length", "adapt_frequency", "spine_rate_hz", "schedule", "hip_depth", "direction", "speed"}
@@ -52,6 +52,9 @@ def check_config(config: dict) -> None:
     seed = config.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"config 'seed' must be a non-negative integer, got {seed!r}")
+    lat = config.get("latency_steps", 0)
+    if isinstance(lat, bool) or not isinstance(lat, int) or lat < 0:
+        raise ValueError(f"config 'latency_steps' must be a non-negative integer (1 ms steps), got {lat!r}")
     for key in ("kx", "kz", "kth", "ktheta", "dx", "dz", "dth", "dtheta"):
         if key in config and _num(config, key, 0.0) < 0:
             raise ValueError(f"config {key!r} must be >= 0, got {config[key]!r}")
@@ -75,11 +78,12 @@ def bound_config(config: dict) -> BoundConfig:
     pert = perturbation(seed)
     duration = _num(config, "duration", 10.0)
     world = WorldConfig(host=config.get("host", "solo12"), slope_rad=_num(config, "slope", 0.0), seed=seed,
-                        friction=pert.friction, mass_scale=pert.mass_scale,
+                        friction=WorldConfig.friction * pert.friction, mass_scale=pert.mass_scale,
                         init_pitch_rad=pert.init_pitch_rad, init_vx_m_s=pert.init_vx_m_s)
     common = dict(duration_s=duration, world=world, spine_variant=config.get("spine", "impedance"),
                   friction_compensation=bool(config.get("friction_comp", False)), stop_on_fall=False,
-                  actuator_latency_steps=pert.latency_steps, settle_s=_num(config, "settle", 1.0))
+                  actuator_latency_steps=int(config.get("latency_steps", 0)),
+                  settle_s=_num(config, "settle", 1.0))
     if gait == "sine":
         d = SineBoundParams()
         f = _num(config, "frequency", d.frequency_hz)

@@ -22,7 +22,7 @@ import numpy as np
 from sparc_quad.metrics import COTS, GROUPS, TABLE, label
 from sparc_quad.study.records import atomic_write_text, jsonable, read_record
 from sparc_quad.study.spec import SPINE_GAIN_KEYS
-from sparc_quad.study.stats import Estimate, bootstrap_mean, paired_difference, wilson
+from sparc_quad.study.stats import Estimate, mean_over_seeds, paired_difference, wilson
 
 K_AXIS, D_AXIS = "kx", "dx"
 # the costs analysed: the table's whole CoT family (legs, spine, total for pos, abs, net, elec)
@@ -161,7 +161,7 @@ def _by_seed(trials: Iterable[Trial], metric: str) -> dict[int, list[float]]:
 def _extras(trials: list[Trial], n_boot: int) -> dict:
     out = {}
     for name in EXTRA:
-        e = bootstrap_mean(list(_by_seed(trials, name).values()), n_boot=n_boot)
+        e = mean_over_seeds(list(_by_seed(trials, name).values()), n_boot=n_boot)
         out[name] = e.value if e else None
     return out
 
@@ -209,7 +209,7 @@ def analyse(trials: list[Trial], n_boot: int = 2000) -> dict:
                 extras["other_gains"] = json.dumps(dict(gains))
             for m in metrics:
                 seeds = _by_seed(ts, m)
-                est = bootstrap_mean(list(seeds.values()), n_boot=n_boot)
+                est = mean_over_seeds(list(seeds.values()), n_boot=n_boot)
                 diff = None
                 if base_trials and spine != base_spine:
                     diff = paired_difference(seeds, _by_seed(base_trials, m), n_boot=n_boot)

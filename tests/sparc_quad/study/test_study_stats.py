@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import stats as sps
 
-from sparc_quad.study.stats import bootstrap_mean, paired_difference, wilson
+from sparc_quad.study.stats import mean_over_seeds, paired_difference, rate_difference, wilson
 
 
 def test_wilson_known_values():
@@ -18,10 +19,10 @@ def test_wilson_known_values():
     assert (lo, hi) == pytest.approx((0.7225, 1.0), abs=1e-4)
 
 
-def test_seed_bootstrap_matches_normal_theory():
+def test_seed_interval_matches_normal_theory():
     rng = np.random.default_rng(1)
     x = rng.normal(3.0, 1.0, size=400)
-    est = bootstrap_mean([[v] for v in x], n_boot=4000)
+    est = mean_over_seeds([[v] for v in x])
     se = x.std(ddof=1) / np.sqrt(x.size)
     assert est.value == pytest.approx(x.mean())
     assert est.lo == pytest.approx(x.mean() - 1.96 * se, abs=0.2 * se)
@@ -29,26 +30,27 @@ def test_seed_bootstrap_matches_normal_theory():
 
 
 def test_strides_resampled_within_seeds():
-    # seeds identical in mean: the interval comes from stride scatter alone, ~ sd / sqrt(total strides)
+    # seeds identical in mean: the interval comes from stride scatter alone (block bootstrap inside each
+    # seed), ~ sd / sqrt(total strides), with the t quantile of 4 seeds
     rng = np.random.default_rng(2)
     groups = [rng.normal(0.0, 1.0, 200) for _ in range(4)]
     groups = [g - g.mean() + 1.0 for g in groups]  # every seed mean exactly 1
-    est = bootstrap_mean(groups, n_boot=4000)
+    est = mean_over_seeds(groups)
     assert est.value == pytest.approx(1.0)
     se = 1.0 / np.sqrt(800)
-    assert est.hi - est.lo == pytest.approx(2 * 1.96 * se, rel=0.2)
+    assert est.hi - est.lo == pytest.approx(2 * sps.t.ppf(0.975, 3) * se, rel=0.25)
     assert est.n_seeds == 4 and est.n_strides == 800
 
 
 def test_seeds_weigh_equally_whatever_their_stride_count():
-    est = bootstrap_mean([np.full(100, 1.0), np.full(2, 3.0)])
+    est = mean_over_seeds([np.full(100, 1.0), np.full(2, 3.0)])
     assert est.value == pytest.approx(2.0)
 
 
 def test_single_value_has_no_interval():
-    est = bootstrap_mean([[1.5]])
+    est = mean_over_seeds([[1.5]])
     assert est.value == 1.5 and est.lo is None and est.overlaps(99.0)
-    assert bootstrap_mean([[np.nan]]) is None
+    assert mean_over_seeds([[np.nan]]) is None
 
 
 def test_pairing_by_seed_removes_between_seed_scatter():
@@ -60,7 +62,7 @@ def test_pairing_by_seed_removes_between_seed_scatter():
     assert d.lo == pytest.approx(-10.0) and d.hi == pytest.approx(-10.0)
     assert not d.overlaps(0.0)
     # the same numbers unpaired would overlap: the cell's CI contains the rigid mean
-    c = bootstrap_mean(list(cell.values()))
+    c = mean_over_seeds(list(cell.values()))
     assert c.lo < np.mean([v[0] for v in rigid.values()]) < c.hi
 
 
@@ -76,5 +78,12 @@ def test_no_difference_overlaps_zero():
     rng = np.random.default_rng(3)
     rigid = {s: rng.normal(1.0, 0.05, 30) for s in range(5)}
     cell = {s: rng.normal(1.0, 0.05, 30) for s in range(5)}
-    d = paired_difference(cell, rigid, n_boot=3000)
+    d = paired_difference(cell, rigid)
     assert d.overlaps(0.0)
+
+
+def test_fall_rates_compared_by_their_interval():
+    d, lo, hi = rate_difference(1, 3, 0, 3)  # 1/3 against 0/3: not distinguishable
+    assert d == pytest.approx(1 / 3) and lo < 0 < hi
+    d, lo, hi = rate_difference(9, 10, 0, 10)
+    assert lo > 0

@@ -19,7 +19,7 @@ HEADLINE = [f"cot_{c}_{g}" for c in COTS for g in GROUPS] + [
     "duty_mean", "flight_time_s", "spine_x_amplitude_m", "spine_theta_amplitude_rad", "spine_x_dominant_hz",
     "spine_x_dominant_over_gait", "spine_work_per_stride_j", "peak_leg_torque_nm", "leg_saturation_share",
     "peak_spine_torque_nm", "spine_saturation_share", "spine_torque_rms_nm", "fell", "fall_time_s",
-    "fall_reason", "window_ok", "n_strides", "seed_mass_scale", "seed_latency_steps",
+    "fall_reason", "window_ok", "n_strides", "seed_mass_scale", "seed_friction",
 ]
 
 
