@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.bench import rig
-from sparc_quad.bench.static import StaticConfig
+from sparc_quad.experiments import rig
+from sparc_quad.experiments.static import StaticConfig
 from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.forces import push_pull
 from spine_module import params as P

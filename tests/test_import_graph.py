@@ -1,10 +1,10 @@
 """The packages' import graph, read with `ast` (module-level AND function-level imports): no cycles, and no
-arrow against the layering (issue 9 item 5).
+arrow against the layering.
 
     spine_module            runs on the robot: never imports sparc_quad, the simulator, plotting or stats
     sparc_quad.robots       where the URDFs live: imports nothing of sparc_quad
-    sparc_quad.sim          the simulator: never imports robot_side/, bench/, gap/, study/ or cli/
-    sparc_quad.robot_side   the robot's side of the spine interface (above sim): never imports bench/,
+    sparc_quad.sim          the simulator: never imports robot_side/, experiments/, gap/, study/ or cli/
+    sparc_quad.robot_side   the robot's side of the spine interface (above sim): never imports experiments/,
                             gap/, study/ or cli/
     sparc_quad.cli          imports anything; nothing imports it
 """
@@ -163,19 +163,20 @@ def test_known_exceptions_still_exist():
     """Remove an entry from KNOWN_* once its cycle or arrow is gone."""
     cycles = _cycles(_internal(GRAPH))
     assert [c for c in KNOWN_CYCLES if c not in cycles] == []
-    arrows = set(_violations("sparc_quad.sim", ("sparc_quad.bench",)))
+    arrows = set(_violations("sparc_quad.sim", ("sparc_quad.experiments",)))
     assert KNOWN_ARROWS - arrows == set()
 
 
 @pytest.mark.parametrize(("layer", "forbidden"), [
     ("spine_module", ("sparc_quad", "pybullet", "pybullet_data", "matplotlib", "scipy", "statsmodels", "tqdm",
                       "example_robot_data", "cma", "dask")),
-    ("sparc_quad.robots", ("sparc_quad.sim", "sparc_quad.bench", "sparc_quad.gap", "sparc_quad.study",
+    ("sparc_quad.robots", ("sparc_quad.sim", "sparc_quad.experiments", "sparc_quad.gap", "sparc_quad.study",
                            "sparc_quad.cli", "sparc_quad.gaits")),
-    ("sparc_quad.sim", ("sparc_quad.robot_side", "sparc_quad.bench", "sparc_quad.gap", "sparc_quad.study",
-                        "sparc_quad.cli")),
-    ("sparc_quad.robot_side", ("sparc_quad.bench", "sparc_quad.gap", "sparc_quad.study", "sparc_quad.cli")),
-    ("sparc_quad.bench", ("sparc_quad.cli",)),
+    ("sparc_quad.sim", ("sparc_quad.robot_side", "sparc_quad.experiments", "sparc_quad.gap",
+                        "sparc_quad.study", "sparc_quad.cli")),
+    ("sparc_quad.robot_side", ("sparc_quad.experiments", "sparc_quad.gap", "sparc_quad.study",
+                               "sparc_quad.cli")),
+    ("sparc_quad.experiments", ("sparc_quad.cli",)),
     ("sparc_quad.gap", ("sparc_quad.cli",)),
     ("sparc_quad.gaits", ("sparc_quad.cli",)),
     ("sparc_quad.study", ("sparc_quad.cli",)),

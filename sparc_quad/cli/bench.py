@@ -105,7 +105,7 @@ def _progress(items, desc: str, unit: str):
 
 
 def run_static(args: argparse.Namespace) -> int:
-    from sparc_quad.bench import static
+    from sparc_quad.experiments import static
 
     cfg = static.StaticConfig(controller=getattr(args, "controller", "impedance"), seed=args.seed,
                               plant=_plant(args), **_quasi_static_gains(args))
@@ -120,7 +120,7 @@ def run_static(args: argparse.Namespace) -> int:
 
 
 def run_dynamic(args: argparse.Namespace) -> int:
-    from sparc_quad.bench import dynamic
+    from sparc_quad.experiments import dynamic
 
     cfg = dynamic.DynamicConfig(seed=args.seed, plant=_plant(args),
                                 **_given(args, k_values="kx", b_values="dx", k_z="kz", k_theta="kth",
@@ -142,7 +142,7 @@ def run_dynamic(args: argparse.Namespace) -> int:
 
 
 def run_pd(args: argparse.Namespace) -> int:
-    from sparc_quad.bench import pd
+    from sparc_quad.experiments import pd
 
     cfg = pd.PDConfig(seed=args.seed, plant=_plant(args), **_quasi_static_gains(args),
                       **_given(args, trials="trials"))

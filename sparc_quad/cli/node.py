@@ -57,7 +57,7 @@ def _experiment_args(p: argparse.ArgumentParser) -> None:
 
 
 def _script(args: argparse.Namespace):
-    from sparc_quad.bench.scripts import hold_script, static_push_script
+    from sparc_quad.experiments.scripts import hold_script, static_push_script
     from sparc_quad.robot_side.scripts import BenchScript
 
     if args.experiment == "static":
@@ -340,7 +340,7 @@ def run_node(args: argparse.Namespace) -> int:
 
 
 def _run_node_inprocess(args: argparse.Namespace) -> int:
-    from sparc_quad.bench.stats import stiffness_from_states
+    from sparc_quad.experiments.stats import stiffness_from_states
     from sparc_quad.robot_side.bench import run_inprocess
 
     if args.clock != "lockstep":
@@ -355,7 +355,7 @@ def _run_node_inprocess(args: argparse.Namespace) -> int:
 
 
 def run_bench_robot(args: argparse.Namespace) -> int:
-    from sparc_quad.bench.stats import stiffness_from_states
+    from sparc_quad.experiments.stats import stiffness_from_states
     from sparc_quad.robot_side.bench import BenchRobot
     from sparc_quad.robot_side.ports import LcmPort
     from sparc_quad.robot_side.states import states_arrays

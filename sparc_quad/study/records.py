@@ -27,7 +27,7 @@ CODE_SUFFIXES = (".py", ".urdf", ".toml", ".json", ".yaml", ".srdf", ".stl", ".o
 NOT_TRIAL_CODE = (
     "sparc_quad/cli/",
     "sparc_quad/gap/",
-    "sparc_quad/bench/",
+    "sparc_quad/experiments/",
     "sparc_quad/study/spec.py",
     "sparc_quad/study/records.py",
     "sparc_quad/study/executors.py",

@@ -11,8 +11,8 @@ import pytest
 
 pytest.importorskip("spine_module.node")
 
-from sparc_quad.bench.scripts import static_push_script
-from sparc_quad.bench.stats import stiffness_fit, stiffness_from_states
+from sparc_quad.experiments.scripts import static_push_script
+from sparc_quad.experiments.stats import stiffness_fit, stiffness_from_states
 from sparc_quad.robot_side.bench import run_inprocess
 from sparc_quad.robot_side.can import run_node_over_can
 from spine_module import params as P

@@ -6,7 +6,7 @@ from __future__ import annotations
 import lcm
 import numpy as np
 
-from sparc_quad.bench.scripts import static_push_script
+from sparc_quad.experiments.scripts import static_push_script
 from sparc_quad.robot_side.bench import BenchRobot, run_inprocess
 from sparc_quad.robot_side.ports import LcmPort
 from sparc_quad.sim.bench_world import BenchWorld

@@ -17,9 +17,9 @@ import lcm
 import numpy as np
 import pytest
 
-from sparc_quad.bench.scripts import static_push_script
-from sparc_quad.bench.static import StaticConfig, measure_stiffness
-from sparc_quad.bench.stats import stiffness_from_states
+from sparc_quad.experiments.scripts import static_push_script
+from sparc_quad.experiments.static import StaticConfig, measure_stiffness
+from sparc_quad.experiments.stats import stiffness_from_states
 from sparc_quad.robot_side.bench import run_inprocess
 from spine_module.messages import FingerprintError, MessageError, channels, codec, decode
 from spine_module.node import NodeConfig

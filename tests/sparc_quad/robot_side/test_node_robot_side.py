@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sparc_quad.bench import rig
-from sparc_quad.bench.scripts import hold_script
+from sparc_quad.experiments import rig
+from sparc_quad.experiments.scripts import hold_script
 from sparc_quad.robot_side.bench import BenchRobot, run_inprocess
 from sparc_quad.robot_side.ports import InProcessPort
 from sparc_quad.sim.bench_world import BenchWorld

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from sparc_quad.bench import rig, static
-from sparc_quad.bench.stats import ols
+from sparc_quad.experiments import rig, static
+from sparc_quad.experiments.stats import ols
 from sparc_quad.sim.cybergear_bench import static_trial_over_can
 from spine_module import params as P
 from spine_module.model import SpineModel

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
-from sparc_quad.bench import rig
+from sparc_quad.experiments import rig
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
 from spine_module.model import SpineModel

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.bench import rig
-from sparc_quad.bench.stats import chunk_slopes, ols
+from sparc_quad.experiments import rig
+from sparc_quad.experiments.stats import chunk_slopes, ols
 from sparc_quad.sim.forces import push_pull
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P

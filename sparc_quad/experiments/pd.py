@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.bench import rig
-from sparc_quad.bench.stats import ols
+from sparc_quad.experiments import rig
+from sparc_quad.experiments.stats import ols
 from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sparc_quad.bench.static import StaticConfig
+from sparc_quad.experiments.static import StaticConfig
 from sparc_quad.robot_side.scripts import BenchScript
 from sparc_quad.sim.forces import push_pull
 from spine_module import params as P

@@ -6,7 +6,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from sparc_quad.bench import dynamic, pd, static
+from sparc_quad.experiments import dynamic, pd, static
 from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
