@@ -168,8 +168,8 @@ def test_known_exceptions_still_exist():
 
 
 @pytest.mark.parametrize(("layer", "forbidden"), [
-    ("spine_module", ("sparc_quad", "pybullet", "pybullet_data", "matplotlib", "scipy", "statsmodels", "tqdm",
-                      "example_robot_data", "cma", "dask")),
+    ("spine_module", ("sparc_quad", "pybullet", "pybullet_data", "mujoco", "matplotlib", "scipy",
+                      "statsmodels", "tqdm", "example_robot_data", "cma", "dask")),
     ("sparc_quad.robots", ("sparc_quad.sim", "sparc_quad.experiments", "sparc_quad.gap", "sparc_quad.study",
                            "sparc_quad.cli", "sparc_quad.gaits")),
     ("sparc_quad.sim", ("sparc_quad.robot_side", "sparc_quad.experiments", "sparc_quad.gap",

@@ -14,7 +14,7 @@ import pytest
 from spine_module.control.linalg import solve3
 
 ROOT = Path(__file__).resolve().parent.parent
-HEAVY = ("pybullet", "matplotlib", "scipy", "statsmodels", "tqdm", "example_robot_data")
+HEAVY = ("pybullet", "mujoco", "matplotlib", "scipy", "statsmodels", "tqdm", "example_robot_data")
 
 LOADED_AFTER_HELP = """
 import sys
@@ -47,6 +47,7 @@ def test_spine_module_node_path_imports_no_scipy_or_matplotlib():
 
 @pytest.mark.parametrize(("command", "module", "extra"), [
     (["bound", "--duration", "0.1"], "pybullet", "sim"),
+    (["bound", "--duration", "0.1", "--engine", "mujoco", "--host", "spined-dog"], "mujoco", "mujoco"),
     (["bench", "static", "--quick"], "scipy", "sim"),
     (["gap", "trial.csv"], "scipy", "gap"),
 ])
@@ -87,7 +88,7 @@ def test_fresh_venv_robot_side_install(tmp_path):
                           cwd=tmp_path).returncode == 0
     assert subprocess.run([str(py), "-c", "import pybullet"], capture_output=True, timeout=60,
                           cwd=tmp_path).returncode != 0
-    for mod in ("scipy", "matplotlib"):
+    for mod in ("scipy", "matplotlib", "mujoco"):
         assert subprocess.run([str(py), "-c", f"import {mod}"], capture_output=True, timeout=60,
                               cwd=tmp_path).returncode != 0, mod
     res = subprocess.run([cli, "bound", "--duration", "0.1", "--out", str(tmp_path / "b")],

@@ -1,4 +1,5 @@
-"""`sparc-quad bound`: the spined quadruped bounding in pybullet; writes metrics, a time series, plots."""
+"""`sparc-quad bound`: the spined quadruped bounding in pybullet or MuJoCo; writes metrics, a time series,
+plots."""
 
 from __future__ import annotations
 
@@ -24,8 +25,10 @@ from sparc_quad.cli.args import (
 )
 from sparc_quad.cli.output import atomic_dir, moved
 from sparc_quad.gaits.bound import BoundParams
+from sparc_quad.gaits.sine_bound import SineBoundParams
+from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES, engine_error
+from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
 from sparc_quad.sim.imu import ImuConfig
-from sparc_quad.sim.quadruped_urdf import DEFAULT_HOST, ROBOT_HOSTS
 
 log = logging.getLogger(__name__)
 
@@ -33,22 +36,29 @@ log = logging.getLogger(__name__)
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "bound",
-        help="bound the SPARC-spined quadruped in pybullet and measure it",
-        description="Simulate the quadruped with the SPARC spine bounding (pybullet DIRECT, 1 kHz). "
+        help="bound the SPARC-spined quadruped in pybullet or MuJoCo and measure it",
+        description="Simulate the quadruped with the SPARC spine bounding (pybullet or MuJoCo, 1 kHz). "
         "Writes metrics.json, timeseries.csv and (unless --no-plots) PNG plots to --out.",
     )
-    g, imu = BoundParams(), ImuConfig()
+    g, sg, imu = BoundParams(), SineBoundParams(), ImuConfig()
     add_gain_options(p)
     p.add_argument("--duration", type=positive_float, default=10.0,
                    help="simulated time, s (default %(default)s)")
     p.add_argument("--speed", type=nonnegative_float, default=g.speed_m_s,
                    help="target forward speed, m/s (default %(default)s)")
-    p.add_argument("--frequency", type=positive_float, default=g.frequency_hz,
-                   help="stride frequency, Hz (default %(default)s)")
+    p.add_argument("--gait", choices=["raibert", "sine"], default="raibert",
+                   help="raibert: gait B, the Raibert-style bound (default); sine: gait A, the SPARC "
+                        "authors' open-loop sine bound (sparc_quad/gaits/sine_bound.py)")
+    p.add_argument("--frequency", type=positive_float, default=None,
+                   help=f"stride frequency, Hz (default {g.frequency_hz} raibert, {sg.frequency_hz} sine)")
     p.add_argument("--stride", type=positive_float, default=None,
                    help="stride length, m; sets the target speed to stride * frequency (overrides --speed)")
-    p.add_argument("--step-height", type=nonnegative_float, default=g.step_height_m,
-                   help="swing foot clearance, m")
+    p.add_argument("--step-height", type=nonnegative_float, default=None,
+                   help=f"swing foot clearance, m (default {g.step_height_m} raibert, "
+                        f"{sg.step_height_m} sine)")
+    p.add_argument("--step-length", type=nonnegative_float, default=sg.step_length_m,
+                   help="--gait sine: L, half the fore-aft foot excursion about the hip (x = L cos phi), m "
+                        "(default %(default)s)")
     p.add_argument("--duty", type=fraction_open, default=None,
                    help="stance fraction of each leg pair (default: 0.5 at <= 0.3 m/s to 0.45 at >= 0.6 m/s)")
     p.add_argument("--slope", type=in_range(-math.pi / 2, math.pi / 2, lo_open=True, hi_open=True),
@@ -71,8 +81,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--imu-delay", type=nonnegative_int, default=imu.delay_steps,
                    help="estimator delay, 1 ms steps")
     p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of every random number in the run")
-    p.add_argument("--host", choices=ROBOT_HOSTS, default=DEFAULT_HOST,
-                   help="host robot (robots/sparc_<host>; default: %(default)s)")
+    p.add_argument("--host", choices=HOSTS, default=DEFAULT_HOST,
+                   help="host robot (robots/sparc_<host>, robots/spined_dog; default: %(default)s)")
+    p.add_argument("--engine", choices=list(ENGINES), default=DEFAULT_ENGINE,
+                   help="physics engine (mujoco needs the [mujoco] extra; default: %(default)s)")
     p.add_argument("--spine", choices=["direct", "node"], default="direct",
                    help="direct: the impedance controller called in this process (fastest); node: the spine "
                         "node in this process on the in-process bus (the reference for --lcm)")
@@ -101,14 +113,17 @@ def config_from_args(args: argparse.Namespace):
     from sparc_quad.sim.quadruped_world import WorldConfig
     from sparc_quad.sim.spine_drive import SpineGains
 
-    gait = BoundParams(
-        frequency_hz=args.frequency, speed_m_s=args.speed, step_height_m=args.step_height, duty=args.duty,
-        body_kp=args.body_kp, body_kd=args.body_kd,
-    )
-    if args.stride is not None:
-        gait = gait.with_stride(args.stride)
+    given = {k: v for k, v in (("frequency_hz", args.frequency), ("step_height_m", args.step_height))
+             if v is not None}
+    if args.gait == "sine":
+        gait = SineBoundParams(step_length_m=args.step_length, **given)
+    else:
+        gait = BoundParams(speed_m_s=args.speed, duty=args.duty, body_kp=args.body_kp, body_kd=args.body_kd,
+                           **given)
+        if args.stride is not None:
+            gait = gait.with_stride(args.stride)
     imu = ImuConfig(q1_noise_rad=args.imu_noise, q1_bias_rad=args.imu_bias, delay_steps=args.imu_delay)
-    world = WorldConfig(host=args.host, slope_rad=args.slope, seed=args.seed, imu=imu)
+    world = WorldConfig(host=args.host, engine=args.engine, slope_rad=args.slope, seed=args.seed, imu=imu)
     spine = SpineGains(k=stiffness(args), d=damping(args))
     return BoundConfig(
         duration_s=args.duration,
@@ -130,6 +145,10 @@ def run(args: argparse.Namespace) -> int:
     if args.video and args.no_plots:
         print("--video renders bound.gif with matplotlib: it cannot be combined with --no-plots",
               file=sys.stderr)
+        return 2
+    missing = engine_error(args.engine)
+    if missing is not None:
+        print(f"sparc-quad bound: {missing}", file=sys.stderr)
         return 2
     cfg = config_from_args(args)
     spine = None

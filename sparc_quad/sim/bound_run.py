@@ -1,6 +1,6 @@
 """Run one bound of the spined quadruped and measure it.
 
-`run_bound(BoundConfig(...))` is a pure function of its configuration (its own pybullet client, its own
+`run_bound(BoundConfig(...))` is a pure function of its configuration (its own physics world, its own
 seeded generator, no files written): the stiffness study fans these out. `write_outputs` turns a result
 into metrics.json, a CSV time series and PNG plots.
 """
@@ -10,7 +10,6 @@ from __future__ import annotations
 import collections
 import json
 import math
-import operator
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
@@ -23,7 +22,7 @@ from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
-from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
+from sparc_quad.sim.quadruped_world import QuadWorld, WorldConfig, make_world
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
 
 
@@ -90,7 +89,7 @@ class SpineInProcess:
         pass
 
 
-def fall_reason(world: QuadrupedWorld, pitch_front: float) -> str | None:
+def fall_reason(world: QuadWorld, pitch_front: float) -> str | None:
     slope = world.cfg.slope_rad
     if world.body_contact:
         return "body touched the ground"
@@ -111,7 +110,7 @@ def variant_of(cfg: BoundConfig) -> str:
 _SPINE_BACKEND = {"numba": "numba", "python": "pinocchio"}
 
 
-def make_gait(world: QuadrupedWorld, params: BoundParams | SineBoundParams, backend: str = "python"):
+def make_gait(world: QuadWorld, params: BoundParams | SineBoundParams, backend: str = "python"):
     """The leg controller; `backend` "numba" compiles gait B (the sine bound is cheap and stays Python)."""
     if isinstance(params, SineBoundParams):
         return SineBoundController(world, params)
@@ -136,7 +135,7 @@ def run_bound(
 ) -> BoundResult:
     """Simulate `cfg.duration_s` of bounding. `spine(est, q_spine, dq_spine, t) -> tau (3,)` defaults to
     the in-process controller. `on_frame(world)` is called every `frame_every_s`; `video` collects frames
-    from pybullet's software renderer at VIDEO_FPS. `profile`, when given, accumulates wall seconds
+    from the world's renderer at VIDEO_FPS. `profile`, when given, accumulates wall seconds
     (time.perf_counter) per phase of each step: read (world.estimate), spine, gait, log (torques sent,
     leg states read, log row), physics (world.step: stepSimulation + state refresh), other (fall
     check); when None the loop takes no
@@ -150,7 +149,7 @@ def run_bound(
     backend = resolve_backend(cfg.backend, cfg.duration_s)
     if backend == "numba":
         load_compiled()
-    world = QuadrupedWorld(world_cfg)
+    world = make_world(world_cfg)
     spine = spine if spine is not None else SpineInProcess(cfg)
     gait = make_gait(world, cfg.gait, backend)
     observe_spine = getattr(gait, "observe_spine", None)
@@ -161,10 +160,9 @@ def run_bound(
     frame_every = round(frame_every_s / dt) if frame_every_s > 0 else 0
     fell, fall_t, first_reason = False, None, None
     legs_order = LEGS
-    pim = world.pos_in_movable
     if tuple(legs_order) != ("HL", "HR", "FL", "FR"):
         raise ValueError(f"the log row lists the legs HL, HR, FL, FR, got {legs_order}")
-    leg_dq = operator.itemgetter(*(pim[j] for k in legs_order for j in world.leg_idx[k]))  # HAA, HFE, KFE
+    leg_dq = world.leg_rates  # HL, HR, FL, FR x (HAA, HFE, KFE)
     if isinstance(gait, SineBoundController):
         def gait_phase() -> float:
             return gait.gait_phase / (2 * math.pi)
@@ -236,7 +234,7 @@ def run_bound(
                       world.q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *world.dq_spine, *tau_s,
                       *spine.task_pose, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
                       flags["hind"], flags["front"], 0.0, 0.0, 0.0,
-                      *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(world.jdq),
+                      *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
                       gait_phase(), gait_frequency(), spine_energy())
             if frame_every and i % frame_every == 0 and on_frame is not None:
                 on_frame(world)

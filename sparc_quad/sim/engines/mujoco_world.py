@@ -1,0 +1,231 @@
+"""The quadruped world in MuJoCo (`mujoco` from PyPI, the [mujoco] extra): torque motors on every joint,
+a plane tilted about y for the slope, the SPARC authors' solver options.
+
+The spined dog loads its own MJCF (robots/spined_dog/spined_dog.xml, the authors' options: dt 1 ms, CG,
+1000 iterations, tolerance 1e-8, elliptic cones, noslip 2). The spliced Solo12 and A1 load their URDF
+through `mujoco.MjSpec`, which gets a free joint, the same floor and options, and a motor per joint.
+The robot's geoms collide with the floor only (contype 2, conaffinity 1 against the floor's 1 / 1), as
+pybullet's URDF robots do without self-collision. Friction is the floor's (priority 1): the foot-ground
+coefficient is `friction`, where pybullet multiplies the foot's and the ground's (friction squared).
+
+After `mj_step` the positions and velocities are the new state; the contacts are those the step solved
+(at its start), as pybullet's contact points after stepSimulation.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from sparc_quad.robots import ROBOTS_DIR
+from sparc_quad.sim import spined_dog
+from sparc_quad.sim.hosts import host_files
+from sparc_quad.sim.quadruped_world import ABSENT, QuadWorld, WorldConfig, load_meta, pitch_of, quat_about_y
+
+FLOOR = "floor"
+LOCK_SOLREF = (0.002, 1.0)  # equality time constant of a locked spine joint: 2 steps of 1 ms
+
+
+def _options(spec: mujoco.MjSpec, cfg: WorldConfig) -> None:
+    ph = spined_dog.PHYSICS
+    o = spec.option
+    o.timestep = cfg.dt_s
+    o.iterations = ph.iterations
+    o.tolerance = ph.tolerance
+    o.impratio = ph.impratio
+    o.solver = getattr(mujoco.mjtSolver, f"mjSOL_{ph.solver}")
+    o.cone = getattr(mujoco.mjtCone, f"mjCONE_{ph.cone.upper()}")
+    o.noslip_iterations = ph.noslip_iterations
+    o.gravity = [0.0, 0.0, -cfg.gravity_m_s2]
+
+
+def _from_urdf(path: Path, meta: dict) -> mujoco.MjSpec:
+    """A URDF robot as an MJCF spec: fixed links kept as bodies (the feet), free joint, floor, motors."""
+    spec = mujoco.MjSpec.from_file(str(path))
+    spec.compiler.fusestatic = False
+    spec.compiler.discardvisual = True
+    root = spec.worldbody.first_body()
+    root.add_freejoint(name="root")
+    for g in spec.geoms:
+        g.contype, g.conaffinity = 2, 1
+    spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[30, 30, 0.1], contype=1,
+                            conaffinity=1, priority=1)
+    spine = set(meta["spine_joints"])
+    for j in spec.joints:
+        if j.type != mujoco.mjtJoint.mjJNT_HINGE:
+            continue
+        lim = meta["spine_torque_limit_nm"] if j.name in spine else meta["leg_torque_limit_nm"]
+        spec.add_actuator(name=f"motor_{j.name}", target=j.name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                          ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE, ctrlrange=[-lim, lim])
+    return spec
+
+
+def _quat_wxyz(xyzw) -> list[float]:
+    x, y, z, w = xyzw
+    return [w, x, y, z]
+
+
+class MujocoWorld(QuadWorld):
+    """One MuJoCo model and data with the spined quadruped standing on its four feet at t = 0."""
+
+    engine = "mujoco"
+
+    def __init__(self, cfg: WorldConfig | None = None, robots_dir: Path = ROBOTS_DIR):
+        cfg = cfg or WorldConfig()
+        files = host_files(cfg.host, robots_dir)
+        super().__init__(cfg, load_meta(files.meta))
+        meta = self.meta
+        spec = mujoco.MjSpec.from_file(str(files.mjcf)) if files.mjcf else _from_urdf(files.urdf, meta)
+        _options(spec, cfg)
+        floor = spec.geom(FLOOR)
+        floor.quat = _quat_wxyz(quat_about_y(-cfg.slope_rad))
+        floor.friction = [cfg.friction, *spined_dog.PHYSICS.floor_friction[1:]]
+        if cfg.lock_spine:
+            q_eq = meta["q_equilibrium"][1:]
+            for name, q in zip(meta["spine_joints"], q_eq, strict=True):
+                data = np.zeros(mujoco.mjNEQDATA)
+                data[0] = q
+                spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=name, data=data, solref=LOCK_SOLREF)
+        self.spec = spec
+        self.model = m = spec.compile()
+        if cfg.mass_scale != 1.0:
+            m.body_mass[1:] *= cfg.mass_scale
+            m.body_inertia[1:] *= cfg.mass_scale
+        self.data = mujoco.MjData(m)
+        self.total_mass = float(m.body_mass[1:].sum())
+        hinges = {m.joint(i).name: i for i in range(m.njnt) if m.jnt_type[i] == mujoco.mjtJoint.mjJNT_HINGE}
+        self._index_joints(hinges)
+        engine_joints = [j for j in self.movable if j != ABSENT]
+        self.n_engine_joints = len(engine_joints)
+        self._qadr = np.array([m.jnt_qposadr[j] for j in engine_joints])
+        self._dadr = np.array([m.jnt_dofadr[j] for j in engine_joints])
+        act_of = {int(m.actuator_trnid[a, 0]): a for a in range(m.nu)}
+        self._ctrl_idx = np.array([act_of[j] for j in engine_joints])
+        self._pad = [0.0] * (len(self.movable) - len(engine_joints))
+        base = m.body(meta["base_link"]).id
+        self._base = base
+        self._floor = m.geom(FLOOR).id
+        foot_body = {m.body(v["foot_link"]).id: k for k, v in self.legs.items()}
+        # bodies below each leg's first joint are the leg's; the others (trunk, spine) are "body"
+        leg_roots = {m.jnt_bodyid[self.joint_index[v["haa"] or v["hfe"]]] for v in self.legs.values()}
+
+        def in_leg(b: int) -> bool:
+            while b > 0:
+                if b in leg_roots:
+                    return True
+                b = int(m.body_parentid[b])
+            return False
+
+        self._geom_foot = {g: foot_body[m.geom_bodyid[g]] for g in range(m.ngeom)
+                           if m.geom_bodyid[g] in foot_body}
+        self._geom_body = {g for g in range(m.ngeom) if m.geom_bodyid[g] > 0 and not in_leg(m.geom_bodyid[g])}
+        self._cf = np.zeros(6)
+        self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
+        if cfg.init_vx_m_s:
+            self.data.qvel[0] = cfg.init_vx_m_s
+            self.read()
+
+    # ---- set-up ---------------------------------------------------------------------------------------
+    def reset_stand(self, pitch_rad: float | None = None) -> None:
+        m, d, cfg = self.model, self.data, self.cfg
+        pitch = -cfg.slope_rad if pitch_rad is None else pitch_rad
+        mujoco.mj_resetData(m, d)
+        q_spine, legs = self.stand_pose()
+        for name, q in zip(self.meta["spine_joints"], q_spine, strict=True):
+            d.qpos[m.jnt_qposadr[self.joint_index[name]]] = q
+        for key, (haa, hfe, kfe) in self.leg_idx.items():
+            if haa != ABSENT:
+                d.qpos[m.jnt_qposadr[haa]] = 0.0
+            d.qpos[m.jnt_qposadr[hfe]], d.qpos[m.jnt_qposadr[kfe]] = legs[key]
+        n = (math.sin(-cfg.slope_rad), 0.0, math.cos(-cfg.slope_rad))  # ground normal
+        h = self.stand_frame_height_m()
+        d.qpos[0:3] = [n[0] * h, n[1] * h, n[2] * h]
+        d.qpos[3:7] = _quat_wxyz(quat_about_y(pitch))
+        mujoco.mj_forward(m, d)
+        self.t = 0.0
+        self.steps = 0
+        self.read()
+
+    def com_x(self) -> float:
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_comPos(self.model, self.data)
+        return float(self.data.subtree_com[self._base][0])
+
+    # ---- state ---------------------------------------------------------------------------------------
+    def read(self) -> None:
+        d = self.data
+        qw, qx, qy, qz, = d.qpos[3:7].tolist()
+        px, py, pz = d.qpos[0:3].tolist()
+        vx, vy, vz, wx, wy, wz = d.qvel[0:6].tolist()
+        rot = (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
+               2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx),
+               2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy))
+        self.base_pos = (px, py, pz)
+        self.base_vel = (vx, vy, vz)  # the free joint's linear velocity: of the frame origin, world axes
+        self.base_quat = (qx, qy, qz, qw)
+        self.base_rot = rot
+        # the free joint's angular velocity is in the body frame: world axes = R w
+        w = (rot[0] * wx + rot[1] * wy + rot[2] * wz, rot[3] * wx + rot[4] * wy + rot[5] * wz,
+             rot[6] * wx + rot[7] * wy + rot[8] * wz)
+        self.base_omega = w
+        self.q1 = pitch_of(self.base_quat)
+        self.dq1 = w[1]
+        self.roll = math.atan2(rot[7], rot[8])
+        self.yaw = math.atan2(rot[3], rot[0])
+        self.jq = jq = d.qpos[self._qadr].tolist() + self._pad
+        self.jdq = jdq = d.qvel[self._dadr].tolist() + self._pad
+        a, b, c = self._spine_pos
+        self.q_spine = [jq[a], jq[b], jq[c]]
+        self.dq_spine = [jdq[a], jdq[b], jdq[c]]
+        self.contact_force = force = dict.fromkeys(self.legs, 0.0)
+        self.other_contact = False
+        self.body_contact = False
+        ncon = d.ncon
+        if ncon:
+            geoms = d.contact.geom.tolist()
+            feet, floor, cf = self._geom_foot, self._floor, self._cf
+            for i in range(ncon):
+                g1, g2 = geoms[i]
+                other = g2 if g1 == floor else g1 if g2 == floor else None
+                if other is None:
+                    continue
+                key = feet.get(other)
+                if key is None:
+                    self.other_contact = True
+                    self.body_contact |= other in self._geom_body
+                else:
+                    mujoco.mj_contactForce(self.model, d, i, cf)
+                    force[key] += float(cf[0])
+
+    def step(self) -> None:
+        d = self.data
+        tau = self._tau if not self._pad else self._tau[:self.n_engine_joints]
+        d.ctrl[self._ctrl_idx] = tau
+        t0 = time.perf_counter()
+        mujoco.mj_step(self.model, d)
+        self.physics_wall_s += time.perf_counter() - t0
+        self.steps += 1
+        self.t = self.steps * self.cfg.dt_s
+        self.read()
+
+    def close(self) -> None:
+        renderer = getattr(self, "_renderer", None)
+        if renderer is not None:
+            renderer.close()
+            self._renderer = None
+
+    def render(self, width: int = 480, height: int = 320) -> np.ndarray:
+        """An RGB frame from MuJoCo's renderer (needs an OpenGL context: MUJOCO_GL=egl or osmesa when
+        headless), camera following the robot."""
+        if getattr(self, "_renderer", None) is None:
+            self._renderer = mujoco.Renderer(self.model, height, width)
+            self._camera = mujoco.MjvCamera()
+            self._camera.distance, self._camera.azimuth, self._camera.elevation = 0.9, 90.0, -10.0
+        x, y, z = self.base_pos
+        self._camera.lookat[:] = (x + 0.15, y, z - 0.05)
+        self._renderer.update_scene(self.data, self._camera)
+        return self._renderer.render().copy()
