@@ -124,6 +124,19 @@ def config_from_args(args: argparse.Namespace):
             gait = gait.with_stride(args.stride)
     imu = ImuConfig(q1_noise_rad=args.imu_noise, q1_bias_rad=args.imu_bias, delay_steps=args.imu_delay)
     world = WorldConfig(host=args.host, engine=args.engine, slope_rad=args.slope, seed=args.seed, imu=imu)
+    if args.gait == "sine" and args.host == "spined-dog":  # their robot: their whole run (authors_run)
+        from dataclasses import replace
+
+        from sparc_quad.gaits import authors_run
+
+        cfg = authors_run.bound_config(args.step_length, args.kx, args.duration, args.engine, **given)
+        # the estimator options as given, else (all at their defaults) the exact, noise-free estimator
+        world = replace(cfg.world, slope_rad=args.slope, seed=args.seed,
+                        imu=imu if imu != ImuConfig() else cfg.world.imu)
+        return replace(cfg, world=world,
+                       rigid_spine=args.rigid_spine, spine_variant=args.spine_variant,
+                       friction_compensation=args.friction_comp, stop_on_fall=False, realtime=args.realtime,
+                       backend=args.backend)
     spine = SpineGains(k=stiffness(args), d=damping(args))
     return BoundConfig(
         duration_s=args.duration,

@@ -24,6 +24,7 @@ from sparc_quad.sim.bound_log import COLUMNS, LEGS
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import QuadWorld, WorldConfig, make_world
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
+from spine_module import params as P
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,9 @@ class BoundConfig:
     spine_variant: str = "impedance"  # impedance | passive | rigid | rigid-impedance (spine_drive)
     spine_schedule: SpineSchedule | None = None  # the authors' gain switch (gait A)
     spine_rate_hz: float | None = None  # motor-rendered spine controller rate (None: every sim step)
+    spine_timing: str = "hold"  # hold (every 1/rate from step 0) | authors (their loop's clock, spine_drive)
+    spine_params: P.SpineParams | None = None  # the impedance controller's model (None: the SPARC module)
+    spine_torso_accel: bool = True  # feed the estimator's q̈1 to the spine law (False: 0, as the authors')
     actuator_latency_steps: int = 0  # every joint torque is applied this many 1 ms steps late
     friction_compensation: bool = False
     stop_on_fall: bool = True
@@ -66,16 +70,18 @@ class SpineInProcess:
         self.drive = make_spine_drive(cfg.spine, rigid=cfg.rigid_spine, friction=cfg.friction_compensation,
                                       variant=cfg.spine_variant, schedule=cfg.spine_schedule,
                                       rate_hz=cfg.spine_rate_hz, dt_s=cfg.world.dt_s,
-                                      backend=_SPINE_BACKEND[resolve_backend(cfg.backend, cfg.duration_s)])
+                                      backend=_SPINE_BACKEND[resolve_backend(cfg.backend, cfg.duration_s)],
+                                      timing=cfg.spine_timing, spine=cfg.spine_params)
         self._q = np.zeros(4)
         self._dq = np.zeros(4)
+        self._torso_accel = cfg.spine_torso_accel
 
     def __call__(self, est, q_spine, dq_spine, t: float):
         q, dq = self._q, self._dq
         q[0], dq[0] = est.q1, est.dq1
         q[1:] = q_spine
         dq[1:] = dq_spine
-        return self.drive.step(q, dq, est.ddq1)
+        return self.drive.step(q, dq, est.ddq1 if self._torso_accel else 0.0)
 
     @property
     def task_pose(self):
@@ -152,6 +158,9 @@ def run_bound(
     world = make_world(world_cfg)
     spine = spine if spine is not None else SpineInProcess(cfg)
     gait = make_gait(world, cfg.gait, backend)
+    start_pose = getattr(gait, "start_pose", None)
+    if start_pose is not None and start_pose() is not None:  # a gait that starts on its trajectory
+        world.set_start(*start_pose())
     observe_spine = getattr(gait, "observe_spine", None)
     begin = getattr(spine, "begin", None)  # split spines (`NodeSpine`): begin, gait, then spine.finish()
     dt = cfg.world.dt_s
@@ -293,7 +302,7 @@ def startup_s(cfg: BoundConfig) -> float:
     """When the gait has reached its running state: start, ramps and (gait A) the spine switch."""
     gp = cfg.gait
     if isinstance(gp, SineBoundParams):
-        t = gp.start_s + gp.ramp_s
+        t = gp.running_from_s
         if cfg.spine_schedule is not None:
             t = max(t, cfg.spine_schedule.switch_s)
         return t

@@ -175,15 +175,29 @@ class QuadWorld(ABC):
         h = math.atan2(-x, -z) - math.atan2(b, a)
         return h, k
 
+    def set_start(self, q_spine: list[float] | None, legs: dict[str, tuple[float, float]],
+                  frame_height_m: float | None) -> None:
+        """Start from this pose instead of the stand (a gait that starts on its trajectory): spine q2..q4
+        (None: the equilibrium arch), each leg's (HFE, KFE), the hind-body frame's height (None: the
+        stand's); then reset to it."""
+        self._start = (q_spine, dict(legs), frame_height_m)
+        self.reset_stand()
+
     def stand_pose(self) -> tuple[list[float], dict[str, tuple[float, float]]]:
         """Spine q2..q4 at the equilibrium arch and each leg's (HFE, KFE) with its foot `stand_height_m`
-        straight below its hip."""
+        straight below its hip (or the pose given to `set_start`)."""
         q_eq = self.meta["q_equilibrium"]
+        start = getattr(self, "_start", None)
+        if start is not None:
+            return list(q_eq[1:]) if start[0] is None else list(start[0]), dict(start[1])
         legs = {key: self.leg_ik(key, 0.0, -self.cfg.stand_height_m) for key in self.leg_idx}
         return list(q_eq[1:]), legs
 
     def stand_frame_height_m(self) -> float:
         """Height of the hind-body frame above the ground (along its normal) in the initial stance."""
+        start = getattr(self, "_start", None)
+        if start is not None and start[2] is not None:
+            return start[2]
         return self.cfg.stand_height_m + self.meta["foot_radius_m"] + 1e-3
 
     @abstractmethod

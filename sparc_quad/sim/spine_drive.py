@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sparc_quad.sim.control_clock import ControlClock
 from spine_module import params as P
 
 
@@ -28,6 +29,7 @@ class SpineGains:
 
 
 SPINE_VARIANTS = ("impedance", "passive", "rigid", "rigid-impedance")
+SPINE_TIMINGS = ("hold", "authors")
 
 
 class LockedSpine:
@@ -122,12 +124,14 @@ class ImpedanceSpine:
     name = "impedance"
     actuated = True
 
-    def __init__(self, gains: SpineGains, friction: bool = False, backend: str = "pinocchio"):
+    def __init__(self, gains: SpineGains, friction: bool = False, backend: str = "pinocchio",
+                 spine: P.SpineParams | None = None):
         from spine_module.control import ImpedanceController, StribeckFriction
         from spine_module.model import SpineModel
 
+        model = SpineModel() if spine is None else SpineModel(spine)
         self.ctrl = ImpedanceController(
-            SpineModel(), friction=StribeckFriction.nominal() if friction else None, backend=backend
+            model, friction=StribeckFriction.nominal() if friction else None, backend=backend
         )
         self.backend = self.ctrl.backend
         self.ctrl.set_gains(k=gains.k, d=gains.d)
@@ -148,31 +152,37 @@ class ImpedanceSpine:
 
 @dataclass(frozen=True)
 class SpineSchedule:
-    """The authors' spine schedule: `k0`, `d0` at target x `x_d0_m` until `switch_s`, then the run's gains
-    at `x_d1_m`."""
+    """The authors' spine schedule: stiffness `k0` (None: the run's k, as their code keeps Kp through the
+    switch), damping `d0` at target x `x_d0_m` until `switch_s`, then the run's gains at `x_d1_m`; the
+    target z is `z_d_m` throughout (0 in the authors' frame; a model whose frame sits elsewhere shifts it)."""
 
     switch_s: float = P.AUTHORS_SPINE_SWITCH_S
-    k0: tuple[float, float, float] = tuple(P.AUTHORS_SPINE_K)
+    k0: tuple[float, float, float] | None = None
     d0: tuple[float, float, float] = tuple(P.AUTHORS_SPINE_D_START)
     x_d0_m: float = P.AUTHORS_X_D_START_M
     x_d1_m: float = P.AUTHORS_X_D_RUN_M
+    z_d_m: float = 0.0
 
 
 class ScheduledDrive:
-    """Wraps a drive: gain/target switch at a time (optional) and a control rate below the sim's
-    (the torque is held between updates, as a 200 Hz controller's would be)."""
+    """Wraps a drive: gain/target switch at a time (optional) and a control rate below the sim's, the
+    torque held between updates. `clock` (a `ControlClock`, the authors' loop): the drive runs when the
+    clock calls, zero torque before its first call, the switch at the first call at or after `switch_s`;
+    without it, every `hold_steps` steps from step 0."""
 
     def __init__(self, drive, gains: SpineGains, schedule: SpineSchedule | None, hold_steps: int,
-                 dt_s: float) -> None:
+                 dt_s: float, clock: ControlClock | None = None) -> None:
         self.drive, self.gains, self.schedule = drive, gains, schedule
         self.hold = max(1, int(hold_steps))
         self.dt = dt_s
+        self.clock = clock
         self.name, self.actuated = drive.name, drive.actuated
         self.tau = np.zeros(3)
         self._k = 0
         self._switched = schedule is None
         if schedule is not None:
-            drive.set_gains(k=schedule.k0, d=schedule.d0, x_d=(schedule.x_d0_m, 0.0, 0.0))
+            k0 = gains.k if schedule.k0 is None else schedule.k0
+            drive.set_gains(k=k0, d=schedule.d0, x_d=(schedule.x_d0_m, schedule.z_d_m, 0.0))
 
     @property
     def x(self):
@@ -191,11 +201,18 @@ class ScheduledDrive:
         return getattr(self.drive, "energy_j", 0.0)
 
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
-        t = self._k * self.dt
-        if not self._switched and t >= self.schedule.switch_s:
-            self.drive.set_gains(k=self.gains.k, d=self.gains.d, x_d=(self.schedule.x_d1_m, 0.0, 0.0))
+        clock = self.clock
+        if clock is not None:
+            run = clock.tick()
+            t = clock.now_s
+        else:
+            run = self._k % self.hold == 0
+            t = self._k * self.dt
+        if not self._switched and t >= self.schedule.switch_s and (run or clock is None):
+            self.drive.set_gains(k=self.gains.k, d=self.gains.d,
+                                 x_d=(self.schedule.x_d1_m, self.schedule.z_d_m, 0.0))
             self._switched = True
-        if self._k % self.hold == 0:
+        if run:
             self.tau[:] = self.drive.step(q, dq, ddq1)
         self._k += 1
         return self.tau
@@ -204,24 +221,31 @@ class ScheduledDrive:
 def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = False,
                      variant: str | None = None, schedule: SpineSchedule | None = None,
                      rate_hz: float | None = None, dt_s: float = P.CONTROL_PERIOD_S,
-                     backend: str = "pinocchio"):
+                     backend: str = "pinocchio", timing: str = "hold",
+                     spine: P.SpineParams | None = None):
     """The drive a bound uses. `variant` is one of SPINE_VARIANTS (`rigid=True` means "rigid").
     `schedule` applies to the impedance and passive springs, `rate_hz` (a controller rate below 1/dt_s)
-    to the motor-rendered impedance only: a physical spring acts continuously. `backend` is the impedance
-    controller's ("pinocchio" or "numba")."""
+    to the motor-rendered impedance only: a physical spring acts continuously. `timing` "hold" updates
+    every round(1 / (rate_hz dt_s)) steps from step 0, "authors" on their loop's clock (`ControlClock`,
+    period 1 / rate_hz). `backend` is the impedance controller's ("pinocchio" or "numba"); `spine` the
+    parameters of the impedance controller's model (None: the SPARC module's)."""
     variant = "rigid" if rigid else (variant or "impedance")
     if variant not in SPINE_VARIANTS:
         raise ValueError(f"spine variant must be one of {', '.join(SPINE_VARIANTS)}, got {variant!r}")
+    if timing not in SPINE_TIMINGS:
+        raise ValueError(f"spine timing must be one of {', '.join(SPINE_TIMINGS)}, got {timing!r}")
     if variant == "rigid":
         return LockedSpine()
     if variant == "rigid-impedance":
         stiff = SpineGains(k=tuple(P.K_RIGID_IMPEDANCE), d=tuple(P.D_RIGID_IMPEDANCE))
-        drive = ImpedanceSpine(stiff, friction=friction, backend=backend)
+        drive = ImpedanceSpine(stiff, friction=friction, backend=backend, spine=spine)
         drive.name = "rigid-impedance"
         return drive
     drive = PassiveSpine(gains) if variant == "passive" else ImpedanceSpine(gains, friction=friction,
-                                                                            backend=backend)
-    hold = 1 if not rate_hz or variant == "passive" else max(1, round(1.0 / (rate_hz * dt_s)))
-    if schedule is None and hold == 1:
+                                                                            backend=backend, spine=spine)
+    motor = bool(rate_hz) and variant != "passive"
+    hold = max(1, round(1.0 / (rate_hz * dt_s))) if motor else 1
+    clock = ControlClock(1.0 / rate_hz, dt_s) if motor and timing == "authors" else None
+    if schedule is None and hold == 1 and clock is None:
         return drive
-    return ScheduledDrive(drive, gains, schedule, hold, dt_s)
+    return ScheduledDrive(drive, gains, schedule, hold, dt_s, clock)

@@ -1,0 +1,88 @@
+"""Gait A as the SPARC authors run it on their spined dog: the spine side of their run, and the
+`BoundConfig` that reproduces the whole run through the project's pipeline.
+
+Source: github.com/YueWang996/sparc, commit d9639f5, `mujoco_simulation/main_robot.py` (the schedule) and
+`spine_impedance_controller.py` (the law's model: `asset/spined_dog_spine_dyn.urdf`, the hind body, three
+spine joints and the front body, no legs); MIT, Copyright (c) 2026 YueWang996.
+
+Their spine: Kp (k_x, 2000, 15) throughout, Kd (15, 5, 1.5) and x_d 0.273 m until 4 s, then Kd (8, 5, 0.5)
+and x_d 0.268 m, computed at each call of their control loop (`ControlClock`, 5 ms rule), h and M from the
+spine-only model. Here the project's impedance controller (spine_module.control) renders that schedule
+(`SpineSchedule` + `ScheduledDrive`, gain and target changes the node's command accepts) on a
+`SpineModel` built from the dog's own numbers (`spine_params`): hind lever 0.1068 m, links 0.1175 m, the
+front body's frame (their task point) as the end effector, 2.044 kg front body without its legs, no rotor
+inertia. What still differs from their law is the law (docs/bounding.md, "Gait A as the authors run it").
+"""
+
+from __future__ import annotations
+
+import math
+
+from sparc_quad.gaits.sine_bound import SineBoundParams
+from sparc_quad.sim.imu import ImuConfig
+from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
+from spine_module import params as P
+
+AUTHORS_K_Z_N_M = 2000.0
+AUTHORS_K_THETA_NM_RAD = 15.0
+AUTHORS_CONTROL_HZ = 200.0  # their nominal rate; the 5 ms rule on a float clock gives ~182 Hz
+JOINT_RANGE_RAD = 10.0  # their hinges' range
+START_SPINE_Q_RAD = (-0.6, 1.2, -0.6)  # main_robot.py: the spine joints at t = 0
+# the estimator the comparison with their run uses: no noise, one step late (their base pose is MuJoCo's
+# xquat, which mj_step leaves one step behind qpos)
+EXACT_IMU = ImuConfig(q1_noise_rad=0.0, dq1_noise_rad_s=0.0, ddq1_noise_rad_s2=0.0, delay_steps=1)
+
+
+def spine_params() -> P.SpineParams:
+    """The spined dog's spine as the project's spine model sees it (planar chain about y: the y offsets of
+    joints and centres of mass do not enter; the front body's 2.2 mm COM height and the first spine
+    joint's 1 mm height are not representable and are left out; the latter shifts task z, see
+    `task_z_offset_m`)."""
+    from sparc_quad.sim import spined_dog as D
+
+    def link(name: str, length_m: float) -> P.LinkParams:
+        b = D.BY_NAME[name]
+        return P.LinkParams(name, b.mass_kg, length_m, b.inertia_kg_m2, b.com_m[0])
+
+    hs, fs, fb = (D.BY_NAME[n] for n in ("hind_spine", "front_spine", "front_body"))
+    links = (link("hind_body", hs.pos_m[0]), link("hind_spine", fs.pos_m[0]),
+             link("front_spine", fb.pos_m[0]), link("front_body", 0.0))
+    lower = {"q1": -math.pi, **{q: -JOINT_RANGE_RAD for q in P.ACTUATED_JOINTS}}
+    upper = {"q1": math.pi, **{q: JOINT_RANGE_RAD for q in P.ACTUATED_JOINTS}}
+    return P.SpineParams(links=links, armature_kg_m2=0.0, torque_limit_nm=D.MOTOR_LIMIT_NM,
+                         velocity_limit_rad_s=D.VELOCITY_LIMIT_RAD_S, lower_rad=lower, upper_rad=upper)
+
+
+def task_z_offset_m() -> float:
+    """Their task z (front-body frame in the hind-body frame) minus the model's: the first spine joint
+    sits this high above the hind-body frame."""
+    from sparc_quad.sim import spined_dog as D
+
+    return D.BY_NAME["hind_spine"].pos_m[2]
+
+
+def schedule() -> SpineSchedule:
+    """Their schedule in the model's frame (their z_d = 0 is the model's -`task_z_offset_m`)."""
+    return SpineSchedule(k0=None, z_d_m=-task_z_offset_m())
+
+
+def gains(k_x_n_m: float) -> SpineGains:
+    """The run's gains (after the switch): Kp (k_x, 2000, 15), Kd (8, 5, 0.5)."""
+    return SpineGains(k=(k_x_n_m, AUTHORS_K_Z_N_M, AUTHORS_K_THETA_NM_RAD), d=tuple(P.AUTHORS_SPINE_D_RUN))
+
+
+def bound_config(step_length_m: float = 0.12, k_x_n_m: float = 800.0, duration_s: float = 20.0,
+                 engine: str = "mujoco", adapt_frequency: bool = True, **gait):
+    """Their run through `run_bound`: the spined dog, gait A (authors variant), their spine schedule on
+    their clock with the spine-only model, a noise-free estimator one step late, their fall test left to
+    `run_bound` (pitch or roll beyond its limits)."""
+    from sparc_quad.sim import spined_dog as D
+    from sparc_quad.sim.bound_run import BoundConfig
+    from sparc_quad.sim.quadruped_world import WorldConfig
+
+    params = SineBoundParams(step_length_m=step_length_m, adapt_frequency=adapt_frequency, variant="authors",
+                             start_spine_q_rad=START_SPINE_Q_RAD, start_base_height_m=D.BASE_HEIGHT_M, **gait)
+    world = WorldConfig(host="spined-dog", engine=engine, imu=EXACT_IMU, stand_height_m=params.hip_depth_m)
+    return BoundConfig(duration_s=duration_s, gait=params, world=world, spine=gains(k_x_n_m),
+                       spine_schedule=schedule(), spine_rate_hz=AUTHORS_CONTROL_HZ, spine_timing="authors",
+                       spine_params=spine_params(), spine_torso_accel=False, settle_s=0.0)

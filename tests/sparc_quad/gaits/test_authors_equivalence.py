@@ -1,0 +1,95 @@
+"""The project's gait A on the spined dog (run_bound: MuJoCo world, gait, spine_module impedance controller
+on the authors' schedule and clock) against the authors' bound re-expressed and run directly in MuJoCo on
+the same MJCF (tests/reference/authors_bound.py).
+
+Tolerance (hind body x, z, pitch; L = 0.08 m, k_x = 800 N/m, the first 2 s): the two laws differ (the
+project's computed-acceleration law on a planar model with q1 a hinge vs their floating-base h with MuJoCo's
+cvel read as a body twist, classical vs spatial J̇q̇, damped pseudo-inverse vs regularised Λ): 0.05 N*m
+at most on the same state, and the open-loop bound amplifies such differences at every touchdown.
+Measured: max |error| over the first 0.5 s 6.5 mm, 3.4 mm, 0.025 rad; RMS over 2 s 0.059 m, 0.017 m,
+0.047 rad; the reference against itself with only its J̇q̇ computed as the project computes it (classical)
+moves RMS 0.058 m, 0.020 m, 0.071 rad. Bounds: max over 0.5 s 15 mm, 10 mm, 0.05 rad; RMS over 2 s 0.10 m,
+0.04 m, 0.12 rad. Ports that are wrong in one respect exceed them (measured: the gait run every 1 ms
+RMS 0.16 m / 0.095 m / 0.26 rad; the SPARC module's spine model in place of the dog's 0.27 rad; the arc
+read literally 0.41 rad within 0.5 s).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tests.paths import ROOT
+
+pytest.importorskip("mujoco")
+
+from sparc_quad.gaits import authors_run
+from sparc_quad.sim.bound_run import run_bound
+from sparc_quad.sim.control_clock import ControlClock
+from tests.reference import authors_bound as ref
+
+MJCF = ROOT / "robots" / "spined_dog" / "spined_dog.xml"
+MAX_05 = {"x": 0.015, "z": 0.010, "pitch": 0.05}
+RMS_2 = {"x": 0.10, "z": 0.04, "pitch": 0.12}
+
+
+def _pair(step_length_m: float, k_x: float, duration_s: float, engine: str = "mujoco"):
+    cfg = replace(authors_run.bound_config(step_length_m, k_x, duration_s, engine=engine), stop_on_fall=True)
+    ours = run_bound(cfg)
+    theirs = ref.run_authors_bound(ref.AuthorsBoundConfig(step_length_m=step_length_m, k_x=k_x,
+                                                          duration_s=duration_s),
+                                   model=ref.load_model(mjcf_path=MJCF))
+    return ours, theirs
+
+
+def _errors(ours, theirs, t_end: float) -> dict[str, np.ndarray]:
+    n = min(len(ours.series), len(theirs.t), round(t_end / 1e-3))
+    assert np.allclose(ours.column("t")[:n], theirs.t[:n], atol=1e-9)
+    return {"x": ours.column("x")[:n] - theirs.x[:n], "z": ours.column("z")[:n] - theirs.z[:n],
+            "pitch": ours.column("q1_true")[:n] - theirs.pitch[:n]}
+
+
+def _speed(t: np.ndarray, x: np.ndarray, t0: float = 4.0) -> float:
+    w = t >= t0
+    return float((x[w][-1] - x[w][0]) / (t[w][-1] - t[w][0]))
+
+
+def test_gait_a_follows_the_authors_run_for_2_s():
+    ours, theirs = _pair(0.08, 800.0, 2.0)
+    assert not ours.metrics["fell"] and theirs.fall_time_s is None
+    e = _errors(ours, theirs, 2.0)
+    assert len(e["x"]) == 2000
+    for name, err in e.items():
+        assert np.abs(err[:500]).max() <= MAX_05[name], (name, np.abs(err[:500]).max())
+        assert np.sqrt(np.mean(err**2)) <= RMS_2[name], (name, np.sqrt(np.mean(err**2)))
+    # their loop called its controller where the project's clock calls the gait and the spine
+    clock = ControlClock(1.0 / authors_run.AUTHORS_CONTROL_HZ, 1e-3)
+    assert theirs.control_calls == sum(clock.tick() for _ in range(2000))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k_x", [300.0, 800.0, 1200.0])
+def test_both_fall_at_the_authors_step_length(k_x):
+    """L = 0.12 m (their default): both fall within 4 s (measured: ours 0.77 / 1.24 / 1.55 s, pitch beyond
+    1 rad; theirs 0.79 / 1.18 / 0.99 s, tilt beyond 90 deg, at k_x 300 / 800 / 1200)."""
+    ours, theirs = _pair(0.12, k_x, 5.0)
+    assert ours.metrics["fell"] and ours.metrics["fall_time_s"] < 4.0
+    assert theirs.fall_time_s is not None and theirs.fall_time_s < 4.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("step_length_m,k_x", [
+    (0.07, 300.0),
+    pytest.param(0.08, 800.0, marks=pytest.mark.xfail(
+        strict=True, reason="measured: the reference falls at 2.27 s (it turns round); ours runs 20 s at "
+                            "0.49 m/s; the issue's 0.88 m/s for the authors' code is not reproduced here")),
+])
+def test_both_run_20_s(step_length_m, k_x):
+    """Both run 20 s at 0.6-1.0 m/s (speed of the hind body from 4 s). Measured at L = 0.07 m, k_x 300:
+    ours 0.69 m/s, theirs 0.67 m/s."""
+    ours, theirs = _pair(step_length_m, k_x, 20.0)
+    assert not ours.metrics["fell"] and theirs.fall_time_s is None
+    for t, x in ((ours.column("t"), ours.column("x")), (theirs.t, theirs.x)):
+        assert 0.6 <= _speed(t, x) <= 1.0
