@@ -36,7 +36,7 @@ lint: install
 
 # every performance script prints ratios measured in the same run and writes out/bench/<name>.json
 # CAN_LOOP_ARGS="--rt-priority 50" runs the CAN loop and its emulator SCHED_FIFO (root or CAP_SYS_NICE)
-BENCHES := control_step node_tick lcm_loop can_loop gap cosim run_cost study_scaling
+BENCHES := control_step node_tick lcm_loop can_loop gap cosim run_cost study_scaling engines
 CAN_LOOP_ARGS ?=
 bench: install
 	for b in $(BENCHES); do $(BIN)/python bench/$$b.py --json out/bench/$$b.json \

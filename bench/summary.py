@@ -29,6 +29,12 @@ ROWS: list[Row] = [
      lambda v: v >= 0.5),
     ("run_cost", "bound --no-plots fixed cost, CPU s", lambda r: r["fixed_cost_cpu_s"], "< 1",
      lambda v: v < 1.0),
+    ("engines", "spined dog MuJoCo bound, sim s per CPU s", lambda r: r["mujoco"]["loop_sim_s_per_cpu_s"],
+     ">= 20", lambda v: v >= 20.0),
+    ("engines", "  its physics (mj_step) share of the loop", lambda r: r["mujoco"]["physics_share"], ">= 0.5",
+     lambda v: v >= 0.5),
+    ("engines", "  pybullet, same trial, sim s per CPU s", lambda r: r["pybullet"]["loop_sim_s_per_cpu_s"],
+     "(context)", lambda v: True),
 ]
 
 

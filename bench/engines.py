@@ -1,0 +1,120 @@
+"""MuJoCo against pybullet on the same robot and gait, in one run: simulated seconds per CPU second of the
+whole bound loop and of the engine step alone, and the share of the loop that is physics.
+
+The trial is the stiffness study's (`sparc_quad.study.fixed_trial.bound_config`): gait A (`sine`) on the
+spined dog, L = 0.08 m, k_x 800 N/m, 10 s, seed 0, the study's spine schedule and spine rate. Each engine
+runs `--repeat` times, interleaved (a burst of load hits both alike); each figure is the best run's.
+
+- loop: simulated s / CPU s (time.process_time) of `run_bound`, world construction and metrics included;
+- engine step alone: simulated s / wall s inside mj_step or stepSimulation during the same bound
+  (`world.physics_wall_s`, perf_counter: only the engine call, not the state read after it);
+- physics share: that engine-step wall time / the loop's wall time (same clock, same run);
+- phases: one profiled run per engine (run_bound's per-phase perf_counter accumulators; `physics` there
+  is world.step: torques in, engine step, state read).
+
+Goal (issue 18): the MuJoCo bound of the spined dog at >= 20 simulated s per CPU s with physics >= 0.5.
+
+    python bench/engines.py --json out/bench/engines.json [--repeat 3] [--duration 10] [--host spined-dog]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+from sparc_quad.sim.bound_run import PROFILE_PHASES, run_bound
+from sparc_quad.sim.engines import ENGINES, engine_error
+from sparc_quad.study.fixed_trial import bound_config
+
+GOAL_SIM_S_PER_CPU_S = 20.0
+GOAL_PHYSICS_SHARE = 0.5
+
+
+def trial(engine: str, host: str, duration_s: float) -> dict:
+    return {"gait": "sine", "host": host, "engine": engine, "duration": duration_s, "step_length": 0.08,
+            "kx": 800.0, "seed": 0}
+
+
+def one_run(engine: str, host: str, duration_s: float, profile: dict | None = None) -> dict:
+    cfg = bound_config(trial(engine, host, duration_s))
+    c0 = time.process_time()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a short or fallen run's metric warnings
+        res = run_bound(cfg, profile=profile)
+    cpu = time.process_time() - c0
+    m = res.metrics
+    sim = m["simulated_s"]
+    return {
+        "simulated_s": sim,
+        "fell": m["fell"],
+        "fall_time_s": m["fall_time_s"],
+        "speed_m_s": m.get("speed_m_s"),
+        "cpu_s": cpu,
+        "loop_wall_s": m["wall_time_s"],
+        "engine_step_wall_s": m["physics_wall_time_s"],
+        "loop_sim_s_per_cpu_s": sim / cpu,
+        "engine_sim_s_per_s": sim / m["physics_wall_time_s"],
+        "physics_share": m["physics_wall_time_s"] / m["wall_time_s"],
+        "spine_backend": m.get("spine_backend"),
+        "gait_backend": m.get("gait_backend"),
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--json", type=Path, required=True)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--duration", type=float, default=10.0, help="simulated s per run")
+    ap.add_argument("--host", default="spined-dog")
+    args = ap.parse_args()
+    if args.repeat < 1 or args.duration <= 0:
+        print("engines: need --repeat >= 1 and --duration > 0", file=sys.stderr)
+        return 2
+    engines = [e for e in ENGINES if engine_error(e) is None]
+    skipped = {e: engine_error(e) for e in ENGINES if e not in engines}
+    runs: dict[str, list[dict]] = {e: [] for e in engines}
+    for _ in range(args.repeat):
+        for e in engines:
+            runs[e].append(one_run(e, args.host, args.duration))
+    result: dict = {"host": args.host, "trial": trial("<engine>", args.host, args.duration),
+                    "repeat": args.repeat, "skipped": skipped}
+    for e in engines:
+        best = max(runs[e], key=lambda r: r["loop_sim_s_per_cpu_s"])
+        prof: dict[str, float] = {}
+        one_run(e, args.host, args.duration, profile=prof)
+        total = sum(prof.values())
+        result[e] = {**best, "phase_share": {k: prof[k] / total for k in PROFILE_PHASES},
+                     "phase_us_per_step": {k: 1e6 * prof[k] / (args.duration * 1000) for k in PROFILE_PHASES},
+                     "all_runs": runs[e]}
+    if "mujoco" in result and "pybullet" in result:
+        result["mujoco_over_pybullet_loop"] = (result["mujoco"]["loop_sim_s_per_cpu_s"]
+                                               / result["pybullet"]["loop_sim_s_per_cpu_s"])
+    if "mujoco" in result:
+        mj = result["mujoco"]
+        result["goal"] = {"sim_s_per_cpu_s": GOAL_SIM_S_PER_CPU_S, "physics_share": GOAL_PHYSICS_SHARE,
+                          "met": bool(mj["loop_sim_s_per_cpu_s"] >= GOAL_SIM_S_PER_CPU_S
+                                      and mj["physics_share"] >= GOAL_PHYSICS_SHARE)}
+    load = Path("/proc/loadavg")
+    result["loadavg"] = load.read_text().split()[:3] if load.exists() else None
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(result, indent=2) + "\n")
+    for e in engines:
+        r = result[e]
+        phases = ", ".join(f"{k} {v:.0f}" for k, v in r["phase_us_per_step"].items())
+        print(f"{e:9s} loop {r['loop_sim_s_per_cpu_s']:6.2f} sim s/CPU s, engine step alone "
+              f"{r['engine_sim_s_per_s']:6.1f} sim s/s, physics share {r['physics_share']:.2f}; "
+              f"fell {r['fell']} ({r['fall_time_s']}), {r['speed_m_s']} m/s; us/step: {phases}")
+    for e, why in skipped.items():
+        print(f"{e:9s} skipped: {why}")
+    if "goal" in result:
+        print(f"goal (MuJoCo >= {GOAL_SIM_S_PER_CPU_S} sim s/CPU s, physics >= {GOAL_PHYSICS_SHARE}): "
+              f"{'met' if result['goal']['met'] else 'NOT met'}; load {' '.join(result['loadavg'] or [])}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
