@@ -7,6 +7,7 @@ constants it needs (mass, g, torque limits, winding losses: from the run's param
 
 from sparc_quad.metrics.table import (
     COTS,
+    ELEC_SENSITIVITY,
     GROUPS,
     TABLE,
     Context,
@@ -21,5 +22,5 @@ from sparc_quad.metrics.table import (
     touchdowns,
 )
 
-__all__ = ["COTS", "GROUPS", "TABLE", "Context", "Metric", "Series", "cost_of_transport", "label", "measure",
-           "merge_disjoint", "saturated", "stride_starts", "touchdowns"]
+__all__ = ["COTS", "ELEC_SENSITIVITY", "GROUPS", "TABLE", "Context", "Metric", "Series", "cost_of_transport",
+           "label", "measure", "merge_disjoint", "saturated", "stride_starts", "touchdowns"]

@@ -32,8 +32,11 @@ from spine_module import params as P
 
 GROUPS = ("legs", "spine", "total")
 COTS = ("pos", "abs", "net", "elec")
+# CoT_elec's sensitivity to the actuator constants: the winding loss coefficient c_j times these
+ELEC_SENSITIVITY = {"elec05": 0.5, "elec2": 2.0}
 COT_NAMES = {"pos": "positive work", "abs": "|tau dq|", "net": "perfect regeneration",
-             "elec": "with winding losses"}
+             "elec": "with winding losses",
+             **{k: f"with winding losses x {v:g}" for k, v in ELEC_SENSITIVITY.items()}}
 SPINE_JOINTS = ("q2", "q3", "q4")
 # a torque counts as saturated within this fraction of its limit (the clamp returns the limit exactly)
 SATURATION_REL_TOL = 1e-6
@@ -96,14 +99,19 @@ def cost_of_transport(energy_j: float, mass_kg: float, distance_m: float, g_m_s2
 
 
 def power_terms(tau: np.ndarray, dq: np.ndarray, loss_w_per_nm2: float) -> dict[str, np.ndarray]:
-    """Per-sample power summed over the joints (columns), W: pos, abs, net, elec."""
+    """Per-sample power summed over the joints (columns), W: pos, abs, net, elec (and elec with the loss
+    coefficient scaled by ELEC_SENSITIVITY)."""
     p = tau * dq
-    return {
+    t2 = tau * tau
+    out = {
         "pos": np.clip(p, 0.0, None).sum(axis=1),
         "abs": np.abs(p).sum(axis=1),
         "net": p.sum(axis=1),
-        "elec": np.clip(p + loss_w_per_nm2 * tau * tau, 0.0, None).sum(axis=1),
+        "elec": np.clip(p + loss_w_per_nm2 * t2, 0.0, None).sum(axis=1),
     }
+    for name, scale in ELEC_SENSITIVITY.items():
+        out[name] = np.clip(p + scale * loss_w_per_nm2 * t2, 0.0, None).sum(axis=1)
+    return out
 
 
 def stride_starts(phase_cycles: np.ndarray) -> np.ndarray:
@@ -166,7 +174,7 @@ class Series:
         spine = power_terms(self.tau_spine, self.dq_spine, ctx.spine_winding.loss_w_per_nm2)
         self.spine_abs_w = spine["abs"]  # what the joints do, actuator or not
         if not ctx.spine_actuated:
-            spine = {c: np.zeros(len(s)) for c in COTS}
+            spine = {c: np.zeros(len(s)) for c in spine}
         self.power = {"legs": legs, "spine": spine}
         self.spine_net_w = (self.tau_spine * self.dq_spine).sum(axis=1)  # actuator or not
         self.x_along = s[:, _IDX["x"]] / math.cos(ctx.slope_rad)
@@ -238,6 +246,8 @@ def _add_cot(c: str, g: str) -> None:
 for _c in COTS:
     for _g in GROUPS:
         _add_cot(_c, _g)
+for _c in ELEC_SENSITIVITY:
+    _add_cot(_c, "total")
 
 
 @_metric("spine_work_j", "J", "spine work", "integral of sum over q2..q4 of tau dq (the spine torque's work "

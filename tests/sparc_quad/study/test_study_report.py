@@ -90,7 +90,7 @@ def test_claims_on_known_answers(tmp_path):
     # 800 is best; 1200 is 4 % dearer, which the seed-paired comparison resolves: only 800 is near
     assert rows[("C1", "impedance")]["verdict"] == "reproduced"
     assert rows[("C1", "impedance")]["near_best_k"] == [800.0]
-    assert rows[("C2", "impedance")]["verdict"] == "partly reproduced"  # k, d in range; stride 120 mm is not
+    assert rows[("C2", "impedance")]["verdict"] == "not tested"  # no step_length: the stride is not imposed
     assert rows[("C3", "impedance")]["verdict"] == "reproduced"  # about -28 %
     assert rows[("C3", "passive")]["verdict"] == "reproduced"
     assert rows[("C4", "impedance")]["verdict"] == "reproduced"  # +-2 % at 0.4 m/s against a wide bowl
@@ -121,7 +121,7 @@ def test_claims_when_every_compliant_trial_fell(tmp_path):
     res = analyse(trials, n_boot=100)
     rows = evaluate(res)
     assert {r["verdict"] for r in rows} == {"not tested"}
-    assert "every trial fell: 36/36" in rows[0]["finding"] and "rigid fell 0/3" in rows[0]["finding"]
+    assert "36/36 trials fell" in rows[0]["finding"]
     cell = next(c for c in res["cells"] if c.spine == "passive" and c.metric == "cot_pos_total")
     assert cell.n_fell == cell.n == 3 and cell.fall_lo == pytest.approx(0.4385, abs=1e-3)
 

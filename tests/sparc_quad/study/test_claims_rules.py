@@ -1,0 +1,127 @@
+"""The report's judgement rules on synthetic records: matched speed, baselines, L as a factor, fall rates by
+interval, the C4 ratio's interval, and plots of fully fallen cells."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from sparc_quad.study.claims import evaluate, markdown
+from sparc_quad.study.records import write_record
+from sparc_quad.study.report import analyse, load_trials, write_report
+
+KS = (300.0, 800.0, 1200.0)
+DS = (8.0, 20.0)
+
+
+def cot(spine: str, k: float | None, d: float | None, L: float) -> float:
+    """rigid 1.0, rigid-impedance 1.1 (holding torque); impedance bowl lowest at k 800, d 8, L 75 mm."""
+    if spine == "rigid":
+        return 1.0
+    if spine == "rigid-impedance":
+        return 1.1
+    return 0.7 + 1.5 * np.log(k / 800.0) ** 2 + 0.005 * abs(d - 8.0) + 20.0 * abs(L - 0.075)
+
+
+def make(folder, *, Ls=(0.075,), speed_of=None, fall=None, n_seeds=10, spines=("rigid", "impedance")):
+    rng = np.random.default_rng(0)
+    hashes = []
+    cells = [(s, None, None) for s in spines if s.startswith("rigid")]
+    cells += [(s, k, d) for s in spines if not s.startswith("rigid") for k in KS for d in DS]
+    for L in Ls:
+        for spine, k, d in cells:
+            for seed in range(n_seeds):
+                cfg = {
+                    "gait": "sine",
+                    "spine": spine,
+                    "step_length": L,
+                    "slope": 0.0,
+                    "seed": seed,
+                    "duration": 20.0,
+                    "host": "spined_dog",
+                    "engine": "mujoco",
+                }
+                if k is not None:
+                    cfg.update(kx=k, dx=d)
+                mean = cot(spine, k, d, L) * (1.0 + 0.1 * rng.normal())
+                v = (speed_of or {}).get((spine, k, d), 0.9)
+                fell = bool(fall and fall(spine, k, d, seed))
+                strides = [{"cot_pos_total": float(mean + rng.normal(0, 0.01))} for _ in range(15)]
+                m = {
+                    "fell": fell,
+                    "speed_m_s": v + 0.005 * rng.normal(),
+                    "commanded_gait_frequency_hz": 3.0,
+                    "cot_pos_total": float(np.mean([s["cot_pos_total"] for s in strides])),
+                    "strides": strides,
+                }
+                if fell:
+                    m.update(cot_pos_total=float("nan"), strides=[])
+                h = f"h{len(hashes):05d}"
+                write_record(folder / "trials", {"hash": h, "config": cfg, "status": "ok", "metrics": m})
+                hashes.append(h)
+    (folder / "summary.json").write_text(json.dumps({"name": "rules", "hashes": hashes}))
+    return analyse(load_trials(folder)[1])
+
+
+def _row(rows, claim, spine="impedance"):
+    return next(r for r in rows if r["claim"] == claim and r["spine"] == spine)
+
+
+def test_off_speed_cells_are_left_out_and_listed(tmp_path):
+    res = make(tmp_path, speed_of={("impedance", 800.0, 8.0): 0.7})  # the cheapest cell ran 0.2 m/s slow
+    o = next(o for o in res["optima"] if o["spine"] == "impedance" and o["metric"] == "cot_pos_total")
+    assert (o["best"]["k"], o["best"]["d"]) != (800.0, 8.0)
+    assert [(c["k"], c["d"]) for c in o["left_out_off_speed"]] == [(800.0, 8.0)]
+    panel = res["panels"][0]
+    assert abs(panel["target_speed_m_s"] - 0.9) < 0.01 and "baseline" in panel["target_source"]
+
+
+def test_motor_spine_is_compared_with_rigid_impedance_passive_with_locked(tmp_path):
+    res = make(tmp_path, spines=("rigid", "rigid-impedance", "impedance", "passive"))
+    by = {(c.spine, c.metric): c for c in res["cells"] if c.k == 800.0 and c.d == 8.0}
+    assert by[("impedance", "cot_pos_total")].baseline == "rigid-impedance"
+    assert by[("passive", "cot_pos_total")].baseline == "rigid"
+    imp = by[("impedance", "cot_pos_total")].diff_pct
+    assert abs(imp.value - 100 * (0.7 / 1.1 - 1)) < 3.0
+
+
+def test_step_length_as_a_factor_decides_c2(tmp_path):
+    rows = evaluate(make(tmp_path, Ls=(0.06, 0.075, 0.12)))
+    r = _row(rows, "C2")
+    assert r["verdict"] == "reproduced" and r["best_L_m"] == 0.075, r
+    assert "over L 60, 75, 120 mm" in r["finding"]
+    assert _row(rows, "C1")["verdict"] == "reproduced"  # 800 best, 300 and 1200 resolved as dearer
+    rows = evaluate(make(tmp_path / "fixed", Ls=(0.12,)))
+    assert _row(rows, "C2")["verdict"] == "not tested"  # L fixed outside 70-80 mm
+
+
+def test_one_fall_in_ten_does_not_exclude_a_cell_zero_in_ten_would(tmp_path):
+    res = make(tmp_path, fall=lambda s, k, d, seed: (s, k, d) == ("impedance", 800.0, 8.0) and seed == 0)
+    o = next(o for o in res["optima"] if o["spine"] == "impedance" and o["metric"] == "cot_pos_total")
+    assert (o["best"]["k"], o["best"]["d"]) == (800.0, 8.0) and o["best"]["n_fell"] == 1
+    res = make(tmp_path / "b", fall=lambda s, k, d, seed: (s, k, d) == ("impedance", 800.0, 8.0) and seed < 8)
+    o = next(o for o in res["optima"] if o["spine"] == "impedance" and o["metric"] == "cot_pos_total")
+    assert (o["best"]["k"], o["best"]["d"]) != (800.0, 8.0)
+    assert [(c["k"], c["d"]) for c in o["left_out_fall_more"]] == [(800.0, 8.0)]
+
+
+def test_untested_conditions_say_so(tmp_path):
+    rows = evaluate(make(tmp_path))
+    assert _row(rows, "C4")["verdict"] == "not tested"  # no low-speed panel
+    assert _row(rows, "C5")["verdict"] == "not tested" and _row(rows, "C6")["verdict"] == "not tested"
+    assert _row(rows, "C3")["verdict"] == "reproduced"  # 0.7 vs 1.0: -30 %
+    md = markdown(rows)
+    assert "| spined_dog | mujoco | sine | impedance |" in md and "Rules:" in md
+
+
+def test_fully_fallen_cells_plot_as_fallen(tmp_path):
+    make(tmp_path, fall=lambda s, k, d, seed: (s, k) == ("impedance", 1200.0))
+    paths = write_report(tmp_path, n_boot=50)
+    names = {p.name for p in paths}
+    assert any(n.startswith("heatmap_") for n in names) and any(n.startswith("cot_vs_k_") for n in names)
+    assert any(n.startswith("cot_vs_speed_") for n in names)
+    doc = json.loads((tmp_path / "report" / "cells.json").read_text())
+    fallen = [c for c in doc["cells"] if c["k"] == 1200.0 and c["metric"] == "cot_pos_total"]
+    assert fallen and all(c["mean"] is None and c["n_fell"] == c["n"] for c in fallen)
+    assert all(len(c["per_seed"]) == 10 for c in doc["cells"] if c["mean"] is not None)
