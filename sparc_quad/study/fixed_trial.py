@@ -13,6 +13,8 @@ from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
 from sparc_quad.metrics import merge_disjoint
 from sparc_quad.sim.bound_run import BoundConfig, run_bound
+from sparc_quad.sim.engines import ENGINES
+from sparc_quad.sim.hosts import HOSTS
 from sparc_quad.sim.quadruped_world import WorldConfig
 from sparc_quad.sim.seed_variation import perturbation
 from sparc_quad.sim.spine_drive import SPINE_VARIANTS, SpineGains, SpineSchedule
@@ -23,7 +25,8 @@ GAITS = ("sine", "raibert", "raibert-opt")
 # the authors' start and arc fall within 0.4 s: the study's existing panels keep their gait)
 STUDY_SINE_VARIANT = "literal"
 _COMMON = {"gait", "spine", "duration", "seed", "slope", "latency_steps", "kx", "kz", "kth", "ktheta", "dx",
-           "dz", "dth", "dtheta", "frequency", "step_height", "settle", "friction_comp", "host"}
+           "dz", "dth", "dtheta", "frequency", "step_height", "settle", "friction_comp", "host",
+           "engine"}
 _RAIBERT = {"speed", "duty", "stride", "body_kp", "body_kd", "phase_offset", "raibert_gain",
             "popsize", "iterations", "opt_duration", "opt_seed", "tuned"}
 _SINE = {"step_length", "adapt_frequency", "spine_rate_hz", "schedule", "hip_depth", "direction", "speed",
@@ -62,6 +65,9 @@ def check_config(config: dict) -> None:
     for key in ("kx", "kz", "kth", "ktheta", "dx", "dz", "dth", "dtheta"):
         if key in config and _num(config, key, 0.0) < 0:
             raise ValueError(f"config {key!r} must be >= 0, got {config[key]!r}")
+    for key, names in (("host", HOSTS), ("engine", tuple(ENGINES))):
+        if config.get(key, names[0]) not in names:
+            raise ValueError(f"config {key!r} must be one of {', '.join(names)}, got {config[key]!r}")
     if abs(_num(config, "slope", 0.0)) > 0.5:
         raise ValueError(f"config 'slope' must be within +-0.5 rad, got {config['slope']!r}")
 
@@ -81,7 +87,8 @@ def bound_config(config: dict) -> BoundConfig:
     seed = int(config.get("seed", 0))
     pert = perturbation(seed)
     duration = _num(config, "duration", 10.0)
-    world = WorldConfig(host=config.get("host", "solo12"), slope_rad=_num(config, "slope", 0.0), seed=seed,
+    world = WorldConfig(host=config.get("host", "solo12"), engine=config.get("engine", "pybullet"),
+                        slope_rad=_num(config, "slope", 0.0), seed=seed,
                         friction=WorldConfig.friction * pert.friction, mass_scale=pert.mass_scale,
                         init_pitch_rad=pert.init_pitch_rad, init_vx_m_s=pert.init_vx_m_s)
     common = dict(duration_s=duration, world=world, spine_variant=config.get("spine", "impedance"),

@@ -43,7 +43,7 @@ SIGNED_KEYS = ("direction", "phase_offset", "imu_bias")
 INT_KEYS = ("popsize", "iterations", "opt_seed", "imu_delay", "latency_steps")
 NUMERIC_KEYS = NONNEG_KEYS + SIGNED_KEYS + INT_KEYS
 BOOL_KEYS = ("friction_comp", "adapt_frequency", "schedule")
-STR_KEYS = ("host",)
+STR_KEYS = ("host", "engine", "variant")
 STUDY_KEYS = ("gait", "duration", "seeds", "speeds", "slopes", "name", "description")
 MAX_TRIALS = 100_000
 
