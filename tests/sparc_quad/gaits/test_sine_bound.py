@@ -142,3 +142,23 @@ def test_start_pose_is_the_trajectory_at_full_amplitude(world):
 def test_bad_variant_is_named():
     with pytest.raises(ValueError, match="variant"):
         SineBoundParams(variant="other").validate()
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+def test_world_starts_where_the_gait_says(engine):
+    """The authors' start through `world.set_start` in either engine: spine, legs and base height."""
+    from sparc_quad.gaits import authors_run
+    from sparc_quad.sim.quadruped_world import make_world
+
+    cfg = authors_run.bound_config(0.1, 800.0, 1.0, engine=engine)
+    w = make_world(cfg.world)
+    try:
+        ctrl = SineBoundController(w, cfg.gait)
+        w.set_start(*ctrl.start_pose())
+        assert w.q_spine == pytest.approx([-0.6, 1.2, -0.6], abs=1e-9)
+        assert w.base_pos[2] == pytest.approx(0.24, abs=1e-9)
+        for leg, (h, k) in ctrl.start_leg_angles().items():
+            st = w.leg_state(leg)
+            assert (st.hfe, st.kfe) == pytest.approx((h, k), abs=1e-9)
+    finally:
+        w.close()
