@@ -1,8 +1,9 @@
 """MuJoCo against pybullet on the same robot and gait, in one run: simulated seconds per CPU second of the
 whole bound loop and of the engine step alone, and the share of the loop that is physics.
 
-The trial is the stiffness study's (`sparc_quad.study.fixed_trial.bound_config`): gait A (`sine`) on the
-spined dog, L = 0.08 m, k_x 800 N/m, 10 s, seed 0, the study's spine schedule and spine rate. Each engine
+The trial is the stiffness study's (`sparc_quad.study.fixed_trial.bound_config`): gait A (`sine`, the
+authors' variant) on the spined dog, L = 0.08 m, k_x 800 N/m, 10 s, seed 0, the study's spine schedule
+and spine rate. Each engine
 runs `--repeat` times, interleaved (a burst of load hits both alike); each figure is the best run's.
 
 - loop: simulated s / CPU s (time.process_time) of `run_bound`, world construction and metrics included;
@@ -35,8 +36,8 @@ GOAL_PHYSICS_SHARE = 0.5
 
 
 def trial(engine: str, host: str, duration_s: float) -> dict:
-    return {"gait": "sine", "host": host, "engine": engine, "duration": duration_s, "step_length": 0.08,
-            "kx": 800.0, "seed": 0}
+    return {"gait": "sine", "variant": "authors", "host": host, "engine": engine, "duration": duration_s,
+            "step_length": 0.08, "kx": 800.0, "seed": 0}
 
 
 def one_run(engine: str, host: str, duration_s: float, profile: dict | None = None) -> dict:

@@ -15,16 +15,25 @@ After `mj_step` the positions and velocities are the new state; the contacts are
 from __future__ import annotations
 
 import math
+import os
 import time
 from pathlib import Path
 
+if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
+    os.environ["MUJOCO_GL"] = "egl"  # headless rendering (render(), --video); set before mujoco loads
 import mujoco
 import numpy as np
 
 from sparc_quad.robots import ROBOTS_DIR
 from sparc_quad.sim import spined_dog
 from sparc_quad.sim.hosts import host_files
-from sparc_quad.sim.quadruped_world import ABSENT, QuadWorld, WorldConfig, load_meta, pitch_of, quat_about_y
+from sparc_quad.sim.quadruped_world import (
+    ABSENT,
+    QuadWorld,
+    WorldConfig,
+    load_meta,
+    quat_about_y,
+)
 
 FLOOR = "floor"
 LOCK_SOLREF = (0.002, 1.0)  # equality time constant of a locked spine joint: 2 steps of 1 ms
@@ -101,10 +110,16 @@ class MujocoWorld(QuadWorld):
         self._index_joints(hinges)
         engine_joints = [j for j in self.movable if j != ABSENT]
         self.n_engine_joints = len(engine_joints)
-        self._qadr = np.array([m.jnt_qposadr[j] for j in engine_joints])
-        self._dadr = np.array([m.jnt_dofadr[j] for j in engine_joints])
+        self._qadr_list = [int(m.jnt_qposadr[j]) for j in engine_joints]
+        self._dadr_list = [int(m.jnt_dofadr[j]) for j in engine_joints]
+
+        def as_slice(adr: list[int]) -> slice | None:
+            return slice(adr[0], adr[-1] + 1) if adr == list(range(adr[0], adr[-1] + 1)) else None
+
+        self._qslice, self._dslice = as_slice(self._qadr_list), as_slice(self._dadr_list)
         act_of = {int(m.actuator_trnid[a, 0]): a for a in range(m.nu)}
-        self._ctrl_idx = np.array([act_of[j] for j in engine_joints])
+        ctrl_idx = [act_of[j] for j in engine_joints]
+        self._ctrl_idx = slice(None) if ctrl_idx == list(range(m.nu)) else np.array(ctrl_idx)
         self._pad = [0.0] * (len(self.movable) - len(engine_joints))
         base = m.body(meta["base_link"]).id
         self._base = base
@@ -158,9 +173,10 @@ class MujocoWorld(QuadWorld):
     # ---- state ---------------------------------------------------------------------------------------
     def read(self) -> None:
         d = self.data
-        qw, qx, qy, qz, = d.qpos[3:7].tolist()
-        px, py, pz = d.qpos[0:3].tolist()
-        vx, vy, vz, wx, wy, wz = d.qvel[0:6].tolist()
+        qp = d.qpos.tolist()  # one conversion each, then plain floats (the per-step cost is Python's)
+        qv = d.qvel.tolist()
+        px, py, pz, qw, qx, qy, qz = qp[:7]
+        vx, vy, vz, wx, wy, wz = qv[:6]
         rot = (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
                2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx),
                2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy))
@@ -172,12 +188,17 @@ class MujocoWorld(QuadWorld):
         w = (rot[0] * wx + rot[1] * wy + rot[2] * wz, rot[3] * wx + rot[4] * wy + rot[5] * wz,
              rot[6] * wx + rot[7] * wy + rot[8] * wz)
         self.base_omega = w
-        self.q1 = pitch_of(self.base_quat)
+        self.q1 = math.atan2(-rot[6], rot[0])  # pitch_of(base_quat), from the same matrix
         self.dq1 = w[1]
         self.roll = math.atan2(rot[7], rot[8])
         self.yaw = math.atan2(rot[3], rot[0])
-        self.jq = jq = d.qpos[self._qadr].tolist() + self._pad
-        self.jdq = jdq = d.qvel[self._dadr].tolist() + self._pad
+        qa, da = self._qslice, self._dslice
+        if qa is not None:
+            self.jq = jq = qp[qa] + self._pad
+            self.jdq = jdq = qv[da] + self._pad
+        else:
+            self.jq = jq = [qp[i] for i in self._qadr_list] + self._pad
+            self.jdq = jdq = [qv[i] for i in self._dadr_list] + self._pad
         a, b, c = self._spine_pos
         self.q_spine = [jq[a], jq[b], jq[c]]
         self.dq_spine = [jdq[a], jdq[b], jdq[c]]
@@ -187,7 +208,7 @@ class MujocoWorld(QuadWorld):
         ncon = d.ncon
         if ncon:
             geoms = d.contact.geom.tolist()
-            feet, floor, cf = self._geom_foot, self._floor, self._cf
+            feet, floor, cf, m = self._geom_foot, self._floor, self._cf, self.model
             for i in range(ncon):
                 g1, g2 = geoms[i]
                 other = g2 if g1 == floor else g1 if g2 == floor else None
@@ -198,7 +219,7 @@ class MujocoWorld(QuadWorld):
                     self.other_contact = True
                     self.body_contact |= other in self._geom_body
                 else:
-                    mujoco.mj_contactForce(self.model, d, i, cf)
+                    mujoco.mj_contactForce(m, d, i, cf)
                     force[key] += float(cf[0])
 
     def step(self) -> None:

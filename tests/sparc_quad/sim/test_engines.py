@@ -122,3 +122,19 @@ def test_run_bound_has_the_same_outputs_on_both_engines(tmp_path):
         keys[engine] = (res.series.shape[1], sorted(res.metrics), sorted(p.name for p in paths))
         assert 0 < res.metrics["physics_wall_time_s"] < res.metrics["wall_time_s"]
     assert len(set(map(str, keys.values()))) == 1, keys
+
+
+def test_study_trial_runs_on_the_mujoco_engine():
+    """A study config names its engine and host like any other key; a wrong one is named."""
+    from sparc_quad.study.fixed_trial import bound_config
+    from sparc_quad.study.trial import run_trial
+
+    config = {"gait": "sine", "host": "spined-dog", "engine": "mujoco", "duration": 0.5, "step_length": 0.08,
+              "variant": "authors"}
+    assert bound_config(config).world.engine == "mujoco"
+    out = run_trial(config)
+    assert out["fell"] in (True, False)
+    with pytest.raises(ValueError, match="config 'engine' must be one of pybullet, mujoco"):
+        bound_config({**config, "engine": "ode"})
+    with pytest.raises(ValueError, match="config 'host' must be one of"):
+        bound_config({**config, "host": "spot"})
