@@ -23,8 +23,9 @@ What it reproduces, as their code runs it:
 - spine law tau = h + J^T (Kp e + Kd de - Lambda Jdot qdot), clamped +-100 N*m (then +-12 by the MJCF),
   h and M of the spine-only model (pinocchio stands in for their `bard`: quaternion wxyz, body-frame base
   twist fed MuJoCo's `cvel` as they do, LOCAL Jacobian and spatial acceleration rotated into the hind
-  body's frame); schedule Kp (k_x, 2000, 15), Kd (15, 5, 1.5), x_d 0.273 m, then from 4 s Kd (8, 5, 0.5),
-  x_d 0.268 m;
+  body's frame: bard's `reference_frame="local"` is the body frame at the commit their code needs,
+  ccfde3d, `bard/core/jacobian.py` and `kinematics.py`); schedule Kp (k_x, 2000, 15), Kd (15, 5, 1.5),
+  x_d 0.273 m, then from 4 s Kd (8, 5, 0.5), x_d 0.268 m;
 - frequency adaptation: the spine x (front-body origin in the hind-body frame) filtered at 6 Hz (filter
   step 5 ms), peaks above 0.02 m; the gait phase at each peak recorded over 2-4 s, its circular mean the
   target; then a lag above 0.1 rad lowers f by 1 Hz/rad (smoothed 1:1, clipped 2.8-3.2 Hz), applied at the

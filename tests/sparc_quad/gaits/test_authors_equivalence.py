@@ -84,7 +84,8 @@ def test_both_fall_at_the_authors_step_length(k_x):
     (0.07, 300.0),
     pytest.param(0.08, 800.0, marks=pytest.mark.xfail(
         strict=True, reason="measured: the reference falls at 2.27 s (it turns round); ours runs 20 s at "
-                            "0.49 m/s; the issue's 0.88 m/s for the authors' code is not reproduced here")),
+                            "0.49 m/s; the issue's 0.88 m/s comes back only with the Jacobian rotated twice "
+                            "(docs/bounding.md)")),
 ])
 def test_both_run_20_s(step_length_m, k_x):
     """Both run 20 s at 0.6-1.0 m/s (speed of the hind body from 4 s). Measured at L = 0.07 m, k_x 300:
