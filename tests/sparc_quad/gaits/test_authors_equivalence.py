@@ -94,3 +94,23 @@ def test_both_run_20_s(step_length_m, k_x):
     assert not ours.metrics["fell"] and theirs.fall_time_s is None
     for t, x in ((ours.column("t"), ours.column("x")), (theirs.t, theirs.x)):
         assert 0.6 <= _speed(t, x) <= 1.0
+
+
+def test_bound_cli_runs_the_authors_run_on_their_robot():
+    """`bound --host spined-dog --gait sine` is `authors_run.bound_config` (their clock, schedule, model,
+    start, exact estimator) with the CLI's k_x, step length, duration and engine."""
+    from sparc_quad.cli import build_parser
+    from sparc_quad.cli.bound import config_from_args
+
+    args = build_parser().parse_args(["bound", "--host", "spined-dog", "--engine", "mujoco", "--gait", "sine",
+                                      "--step-length", "0.07", "--kx", "300", "--duration", "3"])
+    cfg = config_from_args(args)
+    want = authors_run.bound_config(0.07, 300.0, 3.0, engine="mujoco")
+    assert cfg.gait == want.gait and cfg.spine == want.spine and cfg.spine_params == want.spine_params
+    assert cfg.spine_schedule == want.spine_schedule and cfg.world == want.world
+    assert (cfg.spine_timing, cfg.spine_torso_accel, cfg.spine_rate_hz) == ("authors", False, 200.0)
+    noisy = config_from_args(build_parser().parse_args(["bound", "--host", "spined-dog", "--gait", "sine",
+                                                        "--imu-noise", "0.01"]))
+    assert noisy.world.imu.q1_noise_rad == 0.01
+    solo = config_from_args(build_parser().parse_args(["bound", "--gait", "sine"]))
+    assert solo.gait.variant == "authors" and solo.spine_timing == "hold"
