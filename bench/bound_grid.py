@@ -31,7 +31,7 @@ def grid(duration: float) -> list[dict]:
             k = (kx or P.K_DEFAULT[0], P.K_DEFAULT[1], P.K_DEFAULT[2])
             d = (dx or P.D_DEFAULT[0], P.D_DEFAULT[1], P.D_DEFAULT[2])
             cfg = BoundConfig(duration_s=duration, gait=gait, spine=SpineGains(k=k, d=d),
-                              rigid_spine=kind == "rigid")
+                              spine_variant="rigid" if kind == "rigid" else "impedance")
             m = run_bound(cfg).metrics
             row = {"spine": kind, "k_x": kx, "d_x": dx, "target_speed": speed, "fell": m["fell"],
                    "fall_time_s": m["fall_time_s"], "speed_m_s": m.get("speed_m_s"),

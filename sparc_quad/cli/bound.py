@@ -86,8 +86,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--engine", choices=list(ENGINES), default=DEFAULT_ENGINE,
                    help="physics engine (mujoco needs the [mujoco] extra; default: %(default)s)")
     p.add_argument("--spine", choices=["direct", "node"], default="direct",
-                   help="direct: the impedance controller called in this process (fastest); node: the spine "
-                        "node in this process on the in-process bus (the reference for --lcm)")
+                   help="node: the spine node in this process on the in-process bus (the reference: soft "
+                        "start, limits, watchdogs, CyberGear-quantised feedback); direct: the same "
+                        "controller called in process with the node's limit damping and torque clamp, "
+                        "without soft start, watchdogs or quantisation (fastest; default: %(default)s)")
     p.add_argument("--backend", choices=["auto", "numba", "python"], default="auto",
                    help="per-step code: numba (compiled spine step and bound controller; ~0.7 s CPU to load "
                         "per process), python (the reference paths), auto (default): numba for runs of "
@@ -143,8 +145,7 @@ def config_from_args(args: argparse.Namespace):
         gait=gait,
         world=world,
         spine=spine,
-        rigid_spine=args.rigid_spine,
-        spine_variant=args.spine_variant,
+        spine_variant="rigid" if args.rigid_spine else args.spine_variant,
         friction_compensation=args.friction_comp,
         stop_on_fall=False,
         realtime=args.realtime,

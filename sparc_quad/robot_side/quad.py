@@ -1,6 +1,6 @@
 """The quadruped sim as the robot side of the spine interface: the spine node computes the spine torques.
 
-`NodeSpine` is `run_bound`'s `spine(est, q_spine, dq_spine, t) -> tau`: each call is one `RobotSide` tick
+`NodeSpine` is `run_bound`'s reference `SimSpine`: each `begin`/`finish` pair is one `RobotSide` tick
 with the quadruped's spine as the plant (torso state from the estimator emulation with q̈1 valid, the
 run's impedance command every 10 ms, feedback as CyberGear frames, the node's answer through the motor
 model).
@@ -27,9 +27,14 @@ from spine_module.node.io import InProcessNodeIO
 
 
 class NodeSpine:
-    """`spine(est, q_spine, dq_spine, t) -> tau` for `run_bound`, through the spine node."""
+    """The reference `SimSpine` (`sparc_quad.sim.sim_spine`): the spine torques of a bound come from the
+    spine node, its safety logic included."""
 
     name = "node"
+    driver = "node"
+    actuated = True  # motor-rendered
+    backend = None  # the node's own choice
+    energy_j = 0.0
 
     def __init__(self, port: Port, gains: SpineGains, friction: bool = False,
                  node: SpineNode | None = None, node_io: InProcessNodeIO | None = None,
@@ -65,10 +70,6 @@ class NodeSpine:
             raise TimeoutError(f"no heartbeat from a spine node within {wait_node_s:.1f} s")
         return spine
 
-    def __call__(self, est, q_spine, dq_spine, t_sim: float) -> np.ndarray:
-        self.begin(est, q_spine, dq_spine, t_sim)
-        return self.finish()
-
     def begin(self, est, q_spine, dq_spine, t_sim: float) -> None:
         """First half of a tick: publish it to the node. Whatever needs only this tick's state (here the
         task kinematics; in `run_bound` the gait) runs before `finish`, while a node in another process
@@ -97,10 +98,6 @@ class NodeSpine:
     def task_pose(self) -> np.ndarray:
         return self.x
 
-    @property
-    def drive(self):  # for run_bound's metrics: the driver's name
-        return self
-
     def states(self) -> list[SpineState]:
         """The node's spine states received so far (in process: all; over LCM: those that arrived)."""
         if self._final_states is not None:
@@ -111,7 +108,7 @@ class NodeSpine:
             return self.port.drain_states(0.3)
         return []
 
-    def states_arrays(self) -> dict[str, np.ndarray]:
+    def node_states(self) -> dict[str, np.ndarray]:
         st = self.states()
         out = states_arrays(st) if st else {}
         out["robot_sent_q1"] = np.array(self.sent_q1)

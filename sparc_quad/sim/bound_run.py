@@ -23,7 +23,8 @@ from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import QuadWorld, WorldConfig, make_world
-from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
+from sparc_quad.sim.sim_spine import DirectSpine, SimSpine
+from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
 from spine_module import params as P
 
 
@@ -33,7 +34,6 @@ class BoundConfig:
     gait: BoundParams | SineBoundParams = field(default_factory=BoundParams)
     world: WorldConfig = field(default_factory=WorldConfig)
     spine: SpineGains = field(default_factory=SpineGains)
-    rigid_spine: bool = False  # same as spine_variant="rigid" (locked joints)
     spine_variant: str = "impedance"  # impedance | passive | rigid | rigid-impedance (spine_drive)
     spine_schedule: SpineSchedule | None = None  # the authors' gain switch (gait A)
     spine_rate_hz: float | None = None  # motor-rendered spine controller rate (None: every sim step)
@@ -63,36 +63,12 @@ class BoundResult:
         return self.series[:, COLUMNS.index(name)]
 
 
-class SpineInProcess:
-    """The spine controller called in the sim process (the `--lcm` path swaps this for a bridge)."""
-
-    def __init__(self, cfg: BoundConfig):
-        self.drive = make_spine_drive(cfg.spine, rigid=cfg.rigid_spine, friction=cfg.friction_compensation,
-                                      variant=cfg.spine_variant, schedule=cfg.spine_schedule,
-                                      rate_hz=cfg.spine_rate_hz, dt_s=cfg.world.dt_s,
-                                      backend=_SPINE_BACKEND[resolve_backend(cfg.backend, cfg.duration_s)],
-                                      timing=cfg.spine_timing, spine=cfg.spine_params)
-        self._q = np.zeros(4)
-        self._dq = np.zeros(4)
-        self._torso_accel = cfg.spine_torso_accel
-
-    def __call__(self, est, q_spine, dq_spine, t: float):
-        q, dq = self._q, self._dq
-        q[0], dq[0] = est.q1, est.dq1
-        q[1:] = q_spine
-        dq[1:] = dq_spine
-        return self.drive.step(q, dq, est.ddq1 if self._torso_accel else 0.0)
-
-    @property
-    def task_pose(self):
-        return self.drive.x
-
-    @property
-    def energy_j(self) -> float:
-        return getattr(self.drive, "energy_j", 0.0)
-
-    def close(self) -> None:
-        pass
+def direct_spine(cfg: BoundConfig) -> DirectSpine:
+    """The run's spine called in this process (`SimSpine`'s fast configuration; see `sim.sim_spine`)."""
+    return DirectSpine(cfg.spine, variant=variant_of(cfg), friction=cfg.friction_compensation,
+                       schedule=cfg.spine_schedule, rate_hz=cfg.spine_rate_hz, dt_s=cfg.world.dt_s,
+                       backend=_SPINE_BACKEND[resolve_backend(cfg.backend, cfg.duration_s)],
+                       timing=cfg.spine_timing, spine=cfg.spine_params, torso_accel=cfg.spine_torso_accel)
 
 
 def fall_reason(world: QuadWorld, pitch_front: float) -> str | None:
@@ -110,7 +86,7 @@ VIDEO_FPS = 25
 
 
 def variant_of(cfg: BoundConfig) -> str:
-    return "rigid" if cfg.rigid_spine else cfg.spine_variant
+    return cfg.spine_variant
 
 
 _SPINE_BACKEND = {"numba": "numba", "python": "pinocchio"}
@@ -132,15 +108,15 @@ PROFILE_PHASES = ("read", "spine", "gait", "log", "physics", "other")
 
 def run_bound(
     cfg: BoundConfig,
-    spine=None,
+    spine: SimSpine | None = None,
     on_frame: Callable | None = None,
     frame_every_s: float = 0.0,
     video: bool = False,
     profile: dict[str, float] | None = None,
     stop: Callable[[], bool] | None = None,
 ) -> BoundResult:
-    """Simulate `cfg.duration_s` of bounding. `spine(est, q_spine, dq_spine, t) -> tau (3,)` defaults to
-    the in-process controller. `on_frame(world)` is called every `frame_every_s`; `video` collects frames
+    """Simulate `cfg.duration_s` of bounding. `spine` (a `SimSpine`) defaults to the run's spine called in
+    process (`direct_spine(cfg)`). `on_frame(world)` is called every `frame_every_s`; `video` collects frames
     from the world's renderer at VIDEO_FPS. `profile`, when given, accumulates wall seconds
     (time.perf_counter) per phase of each step: read (world.estimate), spine, gait, log (torques sent,
     leg states read, log row), physics (world.step: stepSimulation + state refresh), other (fall
@@ -156,13 +132,12 @@ def run_bound(
     if backend == "numba":
         load_compiled()
     world = make_world(world_cfg)
-    spine = spine if spine is not None else SpineInProcess(cfg)
+    spine = spine if spine is not None else direct_spine(cfg)
     gait = make_gait(world, cfg.gait, backend)
     start_pose = getattr(gait, "start_pose", None)
     if start_pose is not None and start_pose() is not None:  # a gait that starts on its trajectory
         world.set_start(*start_pose())
     observe_spine = getattr(gait, "observe_spine", None)
-    begin = getattr(spine, "begin", None)  # split spines (`NodeSpine`): begin, gait, then spine.finish()
     dt = cfg.world.dt_s
     n = round(cfg.duration_s / dt)
     log = np.zeros((n, len(COLUMNS)))
@@ -184,9 +159,6 @@ def run_bound(
 
         def gait_frequency() -> float:
             return gait.p.frequency_hz
-
-    def spine_energy() -> float:
-        return getattr(spine, "energy_j", 0.0)
 
     latency = max(0, int(cfg.actuator_latency_steps))
     pipe: collections.deque = collections.deque()
@@ -210,10 +182,7 @@ def run_bound(
             if prof:
                 c1 = clock()
                 profile["read"] += c1 - c0
-            if begin is None:
-                tau_s = spine(est, world.q_spine, world.dq_spine, t)
-            else:  # a spine node in another process: publish the tick; the gait runs while it answers
-                begin(est, world.q_spine, world.dq_spine, t)
+            spine.begin(est, world.q_spine, world.dq_spine, t)  # a node elsewhere works while the gait runs
             if prof:
                 c0 = clock()
                 profile["spine"] += c0 - c1
@@ -221,12 +190,11 @@ def run_bound(
             if prof:
                 c1 = clock()
                 profile["gait"] += c1 - c0
-            if begin is not None:
-                tau_s = spine.finish()  # the same numbers as spine(...): the gait does not read the spine
-                if prof:
-                    c0 = c1
-                    c1 = clock()
-                    profile["spine"] += c1 - c0
+            tau_s = spine.finish()  # the gait does not read the spine: the order does not change the numbers
+            if prof:
+                c0 = c1
+                c1 = clock()
+                profile["spine"] += c1 - c0
             if latency:  # what the actuators apply now was commanded `latency` steps ago
                 pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
                 tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
@@ -244,7 +212,7 @@ def run_bound(
                       *spine.task_pose, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
                       flags["hind"], flags["front"], 0.0, 0.0, 0.0,
                       *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
-                      gait_phase(), gait_frequency(), spine_energy())
+                      gait_phase(), gait_frequency(), spine.energy_j)
             if frame_every and i % frame_every == 0 and on_frame is not None:
                 on_frame(world)
             if prof:
@@ -280,8 +248,7 @@ def run_bound(
     metrics_table.derived_columns(series)
     # metrics end at the first fall: what a fallen robot does afterwards (stop_on_fall=False) is no gait
     measured = series[: max(1, round(fall_t / dt))] if fell and fall_t is not None else series
-    drive = getattr(spine, "drive", None)
-    actuated = bool(getattr(drive, "actuated", True))  # the node and LCM paths are motor-rendered
+    actuated = spine.actuated
     t_start = window_start_s(cfg)
     ctx = metrics_table.Context(
         dt_s=dt, mass_kg=mass, gravity_m_s2=cfg.world.gravity_m_s2, slope_rad=cfg.world.slope_rad,
@@ -291,10 +258,11 @@ def run_bound(
     metrics = metrics_table.merge_disjoint(facts, metrics_table.measure(measured, ctx, t_start))
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
-    metrics["spine_driver"] = getattr(drive, "name", type(spine).__name__)
-    metrics["spine_backend"] = getattr(getattr(drive, "drive", drive), "backend", None)
+    metrics["spine_path"] = spine.name
+    metrics["spine_driver"] = spine.driver
+    metrics["spine_backend"] = spine.backend
     metrics["gait_backend"] = "numba" if type(gait).__name__ == "CompiledBoundController" else "python"
-    node_states = spine.states_arrays() if hasattr(spine, "states_arrays") else None
+    node_states = spine.node_states()
     return BoundResult(cfg, metrics, series, wall, frames, node_states)
 
 

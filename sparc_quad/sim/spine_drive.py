@@ -7,9 +7,10 @@
 - `rigid`: the spine locked by pybullet constraints (the world does it); no torque here.
 - `rigid-impedance`: the impedance controller at K = 1e4 N/m; its holding torque is actuator work.
 
-Every drive has `step(q, dq, ddq1) -> tau`, `x`, `dx` (task pose, rate), `ok`, `name` and `actuated`
-(whether its torque is charged as actuator work). `ScheduledDrive` adds the authors' gain switch and a
-slower control rate (zero-order hold) to any drive that has `set_gains`.
+Every drive has `step(q, dq, ddq1) -> tau`, `x`, `dx` (task pose, rate), `ok`, `name`, `actuated`
+(whether its torque is charged as actuator work), `backend` (the controller's per-step code, None for no
+controller) and `energy_j` (stored in a passive element, J). `ScheduledDrive` adds the authors' gain
+switch and a slower control rate (zero-order hold) to any drive that has `set_gains`.
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ class LockedSpine:
 
     name = "rigid"
     actuated = False
+    backend = None
+    energy_j = 0.0
 
     def __init__(self) -> None:
         self.tau = np.zeros(3)
@@ -77,6 +80,7 @@ class PassiveSpine:
 
     name = "passive"
     actuated = False
+    backend = None
 
     def __init__(self, gains: SpineGains, x_d: tuple[float, float, float] | None = None,
                  preload: bool = True) -> None:
@@ -123,6 +127,7 @@ class ImpedanceSpine:
 
     name = "impedance"
     actuated = True
+    energy_j = 0.0
 
     def __init__(self, gains: SpineGains, friction: bool = False, backend: str = "pinocchio",
                  spine: P.SpineParams | None = None):
@@ -176,7 +181,7 @@ class ScheduledDrive:
         self.hold = max(1, int(hold_steps))
         self.dt = dt_s
         self.clock = clock
-        self.name, self.actuated = drive.name, drive.actuated
+        self.name, self.actuated, self.backend = drive.name, drive.actuated, drive.backend
         self.tau = np.zeros(3)
         self._k = 0
         self._switched = schedule is None
@@ -198,7 +203,7 @@ class ScheduledDrive:
 
     @property
     def energy_j(self) -> float:
-        return getattr(self.drive, "energy_j", 0.0)
+        return self.drive.energy_j
 
     def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
         clock = self.clock

@@ -39,7 +39,7 @@ def test_same_config_same_trajectory():
 
 
 def test_rigid_spine_baseline_bounds_and_stays_rigid():
-    r = run_bound(BoundConfig(duration_s=2.0, rigid_spine=True, settle_s=0.2))
+    r = run_bound(BoundConfig(duration_s=2.0, spine_variant="rigid", settle_s=0.2))
     assert not r.metrics["fell"]
     assert r.metrics["spine_x_range_m"] < 0.005
 

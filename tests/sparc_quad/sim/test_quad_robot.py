@@ -59,7 +59,7 @@ def test_second_host_stands_in_the_world():
     from sparc_quad.sim.quadruped_world import WorldConfig
 
     cfg = BoundConfig(duration_s=1.0, world=WorldConfig(host="a1"), gait=BoundParams(start_s=10.0),
-                      rigid_spine=True, settle_s=0.0)
+                      spine_variant="rigid", settle_s=0.0)
     r = run_bound(cfg)
     assert not r.metrics["fell"]
     assert r.column("z")[-1] == pytest.approx(0.22 + 0.02, abs=0.04)  # hips near the stand height
