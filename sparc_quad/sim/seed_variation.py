@@ -16,6 +16,7 @@ import numpy as np
 # ranges (uniform): small disturbances a real replicate would see
 PITCH_RAD = 0.03
 VX_M_S = 0.05
+START_PHASE_CYCLES = 0.05  # +- this fraction of a stride: an open-loop gait's designed start stays near
 FRICTION = (0.9, 1.1)
 MASS_SCALE = (0.98, 1.02)
 
@@ -24,7 +25,7 @@ MASS_SCALE = (0.98, 1.02)
 class Perturbation:
     init_pitch_rad: float = 0.0
     init_vx_m_s: float = 0.0
-    start_phase_cycles: float = 0.0  # fraction of a stride
+    start_phase_cycles: float = 0.0  # fraction of a stride (signed)
     friction: float = 1.0  # times the nominal foot-ground coefficient
     mass_scale: float = 1.0
 
@@ -42,7 +43,7 @@ def perturbation(seed: int) -> Perturbation:
     return Perturbation(
         init_pitch_rad=float(rng.uniform(-PITCH_RAD, PITCH_RAD)),
         init_vx_m_s=float(rng.uniform(-VX_M_S, VX_M_S)),
-        start_phase_cycles=float(rng.uniform(0.0, 1.0)),
+        start_phase_cycles=float(rng.uniform(-START_PHASE_CYCLES, START_PHASE_CYCLES)),
         friction=float(rng.uniform(*FRICTION)),
         mass_scale=float(rng.uniform(*MASS_SCALE)),
     )

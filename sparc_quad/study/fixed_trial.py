@@ -95,6 +95,8 @@ def bound_config(config: dict) -> BoundConfig:
                   friction_compensation=bool(config.get("friction_comp", False)), stop_on_fall=False,
                   actuator_latency_steps=int(config.get("latency_steps", 0)),
                   settle_s=_num(config, "settle", 1.0))
+    if gait == "sine" and config.get("variant") == "authors" and world.host == "spined-dog":
+        return _authors_run(config, world, common, pert)
     if gait == "sine":
         d = SineBoundParams()
         f = _num(config, "frequency", d.frequency_hz)
@@ -128,6 +130,28 @@ def bound_config(config: dict) -> BoundConfig:
     if "stride" in config:
         params = params.with_stride(_num(config, "stride", 0.0))
     return BoundConfig(gait=params, spine=spine_gains(config, P.K_DEFAULT, P.D_DEFAULT), **common)
+
+
+def _authors_run(config: dict, world: WorldConfig, common: dict, pert) -> BoundConfig:
+    """Gait A on the spined dog as the authors run it (sparc_quad.gaits.authors_run: their start, clock,
+    spine schedule on the dog's spine-only model, noise-free estimator one step late), with the study's
+    seed perturbation, spine variant, gains, latency and window on top."""
+    from sparc_quad.gaits import authors_run as A
+
+    d = SineBoundParams()
+    base = A.bound_config(step_length_m=_num(config, "step_length", d.step_length_m),
+                          k_x_n_m=_num(config, "kx", P.AUTHORS_SPINE_K[0]), duration_s=common["duration_s"],
+                          engine=world.engine, adapt_frequency=bool(config.get("adapt_frequency", True)),
+                          frequency_hz=_num(config, "frequency", d.frequency_hz),
+                          step_height_m=_num(config, "step_height", d.step_height_m),
+                          start_phase_rad=2 * math.pi * pert.start_phase_cycles)
+    base.gait.validate()
+    run_gains = A.gains(base.spine.k[0])
+    spine = spine_gains(config, run_gains.k, run_gains.d)
+    w = replace(base.world, slope_rad=world.slope_rad, seed=world.seed, friction=world.friction,
+                mass_scale=world.mass_scale, init_pitch_rad=world.init_pitch_rad,
+                init_vx_m_s=world.init_vx_m_s)
+    return replace(base, spine=spine, **{**common, "world": w})
 
 
 def _flat(metrics: dict) -> dict:

@@ -239,6 +239,8 @@ def analyse(trials: list[Trial], n_boot: int = 400) -> dict:
         name = panel_name(pkey, varied)
         cellmap = groups[pkey]
         present = {c[0] for c in cellmap}
+        # a baseline every trial of which fell cannot be compared with: the other one is used (and named)
+        standing = {c[0] for c, ts in cellmap.items() if c[0] in BASELINES and any(not t.fell for t in ts)}
         base_trials = {b: [t for c, ts in cellmap.items() if c[0] == b for t in ts] for b in BASELINES}
         locked = base_trials["rigid"] or base_trials["rigid-impedance"]
         base_speed = _extras(locked)["speed_m_s"] if locked else None
@@ -259,7 +261,7 @@ def analyse(trials: list[Trial], n_boot: int = 400) -> dict:
             extras = _extras(ts)
             if gains:
                 extras["other_gains"] = json.dumps(dict(gains))
-            base = _baseline_for(spine, present)
+            base = _baseline_for(spine, standing)
             for m in metrics:
                 seeds = _by_seed(ts, m)
                 est = mean_over_seeds(list(seeds.values()), n_boot=n_boot)

@@ -30,3 +30,17 @@ def test_latency_is_a_factor_default_zero():
     assert sorted({c["latency_steps"] for c in spec.trials()}) == [0, 2]
     with pytest.raises(SpecError, match="latency_steps"):
         parse_spec({"study": {"gait": "raibert", "duration": 1.0}, "grid": {"latency_steps": [1.5]}})
+
+
+def test_authors_gait_on_the_spined_dog_is_their_run_with_the_seed_on_top():
+    from sparc_quad.gaits import authors_run as A
+
+    cfg = {"gait": "sine", "variant": "authors", "host": "spined-dog", "engine": "mujoco", "seed": 4,
+           "step_length": 0.07, "kx": 500.0, "dx": 12.0, "duration": 6.0}
+    bc = bound_config(cfg)
+    ref = A.bound_config(step_length_m=0.07, k_x_n_m=500.0, duration_s=6.0)
+    assert bc.spine_timing == ref.spine_timing == "authors" and bc.spine_params == ref.spine_params
+    assert bc.world.imu == A.EXACT_IMU and bc.spine.k[0] == 500.0 and bc.spine.d[0] == 12.0
+    p = perturbation(4)
+    assert bc.world.mass_scale == p.mass_scale and bc.world.seed == 4 and bc.actuator_latency_steps == 0
+    assert bc.gait.start_phase_rad == pytest.approx(2 * 3.141592653589793 * p.start_phase_cycles)
