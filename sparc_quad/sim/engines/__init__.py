@@ -5,7 +5,14 @@ world of that engine is made, so a process pays only for the engine it uses."""
 from __future__ import annotations
 
 import importlib
+import os
 from dataclasses import dataclass
+
+# MuJoCo picks its OpenGL backend when it is first imported: without a display, EGL (headless rendering,
+# `render()` and `bound --video`). This package is imported before its backends, so this runs first
+# unless the process imported mujoco itself earlier.
+if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
+    os.environ["MUJOCO_GL"] = "egl"
 
 
 @dataclass(frozen=True)

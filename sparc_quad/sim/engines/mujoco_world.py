@@ -15,12 +15,9 @@ After `mj_step` the positions and velocities are the new state; the contacts are
 from __future__ import annotations
 
 import math
-import os
 import time
 from pathlib import Path
 
-if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-    os.environ["MUJOCO_GL"] = "egl"  # headless rendering (render(), --video); set before mujoco loads
 import mujoco
 import numpy as np
 
@@ -139,6 +136,7 @@ class MujocoWorld(QuadWorld):
                            if m.geom_bodyid[g] in foot_body}
         self._geom_body = {g for g in range(m.ngeom) if m.geom_bodyid[g] > 0 and not in_leg(m.geom_bodyid[g])}
         self._cf = np.zeros(6)
+        self._elliptic = m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
         if cfg.init_vx_m_s:
             self.data.qvel[0] = cfg.init_vx_m_s
@@ -207,8 +205,12 @@ class MujocoWorld(QuadWorld):
         self.body_contact = False
         ncon = d.ncon
         if ncon:
-            geoms = d.contact.geom.tolist()
+            con = d.contact
+            geoms = con.geom.tolist()
             feet, floor, cf, m = self._geom_foot, self._floor, self._cf, self.model
+            # elliptic cones: a contact's first constraint row is its normal force (what mj_contactForce
+            # copies); pyramidal ones need mj_contactForce's conversion
+            adr = con.efc_address.tolist() if self._elliptic else None
             for i in range(ncon):
                 g1, g2 = geoms[i]
                 other = g2 if g1 == floor else g1 if g2 == floor else None
@@ -218,6 +220,9 @@ class MujocoWorld(QuadWorld):
                 if key is None:
                     self.other_contact = True
                     self.body_contact |= other in self._geom_body
+                elif adr is not None:
+                    if adr[i] >= 0:
+                        force[key] += float(d.efc_force[adr[i]])
                 else:
                     mujoco.mj_contactForce(m, d, i, cf)
                     force[key] += float(cf[0])
@@ -246,7 +251,9 @@ class MujocoWorld(QuadWorld):
             self._renderer = mujoco.Renderer(self.model, height, width)
             self._camera = mujoco.MjvCamera()
             self._camera.distance, self._camera.azimuth, self._camera.elevation = 0.9, 90.0, -10.0
+            self._scene_option = mujoco.MjvOption()
+            self._scene_option.geomgroup[:] = 1  # the foot spheres are in group 3 (hidden by default)
         x, y, z = self.base_pos
         self._camera.lookat[:] = (x + 0.15, y, z - 0.05)
-        self._renderer.update_scene(self.data, self._camera)
+        self._renderer.update_scene(self.data, self._camera, self._scene_option)
         return self._renderer.render().copy()

@@ -138,3 +138,52 @@ def test_study_trial_runs_on_the_mujoco_engine():
         bound_config({**config, "engine": "ode"})
     with pytest.raises(ValueError, match="config 'host' must be one of"):
         bound_config({**config, "host": "spot"})
+
+
+def test_mujoco_foot_forces_are_mj_contact_force_normals():
+    """The fast read (constraint rows of elliptic cones) gives mj_contactForce's normal force per foot."""
+    import mujoco
+
+    cf = np.zeros(6)
+    with make_world(WorldConfig(host="spined-dog", engine="mujoco")) as w:
+        seen = 0
+        for i in range(600):
+            s = np.sin(i / 40)
+            w.set_torques([s, 0.0, 0.0], {k: (0.0, 3 * s, -3 * s) for k in w.legs})
+            w.step()
+            ref = dict.fromkeys(w.legs, 0.0)
+            for c in range(w.data.ncon):
+                g1, g2 = w.data.contact.geom[c]
+                key = w._geom_foot.get(g2 if g1 == w._floor else g1)
+                if key is not None:
+                    mujoco.mj_contactForce(w.model, w.data, c, cf)
+                    ref[key] += cf[0]
+                    seen += 1
+            assert w.contact_force == pytest.approx(ref, abs=1e-12)
+        assert seen > 100
+
+
+RENDER = """
+from sparc_quad.sim.quadruped_world import WorldConfig, make_world
+with make_world(WorldConfig(host="spined-dog", engine="mujoco")) as w:
+    try:
+        img = w.render(96, 64)
+    except Exception as exc:
+        print("NO-GL", exc)
+    else:
+        print(img.shape, img.dtype, float(img.std()))
+"""
+
+
+def test_mujoco_renders_a_frame():
+    """In a fresh process (MuJoCo picks its OpenGL backend at its first import: EGL when headless)."""
+    import subprocess
+
+    from tests.paths import ROOT
+
+    out = subprocess.run([sys.executable, "-c", RENDER], cwd=ROOT, capture_output=True, text=True,
+                         timeout=120, check=True).stdout.strip().splitlines()[-1]
+    if out.startswith("NO-GL"):
+        pytest.skip(f"MuJoCo cannot render here: {out}")
+    shape, dtype, std = out.rsplit(" ", 2)
+    assert shape == "(64, 96, 3)" and dtype == "uint8" and float(std) > 1.0
