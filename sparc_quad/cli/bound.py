@@ -175,7 +175,8 @@ def run(args: argparse.Namespace) -> int:
 
         try:
             spine = NodeSpine.over_lcm(cfg.spine, cfg.friction_compensation, url=args.lcm_url,
-                                       lockstep=not args.realtime, wait_node_s=args.wait_node)
+                                       lockstep=not args.realtime, wait_node_s=args.wait_node,
+                                       schedule=cfg.spine_schedule, torso_accel=cfg.spine_torso_accel)
         except TimeoutError as exc:
             print(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` first",
                   file=sys.stderr)
@@ -183,7 +184,14 @@ def run(args: argparse.Namespace) -> int:
     elif args.spine == "node":
         from sparc_quad.robot_side.quad import NodeSpine
 
-        spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation)
+        node_config = None
+        if args.gait == "sine" and args.host == "spined-dog":
+            from sparc_quad.gaits import authors_run
+
+            node_config = authors_run.node_config()
+        spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation, node_config=node_config,
+                                    schedule=cfg.spine_schedule, spine=cfg.spine_params,
+                                    torso_accel=cfg.spine_torso_accel)
     # Ctrl-C sets a flag that the loop and the steps below check, so KeyboardInterrupt is raised in Python
     # code: raised inside a compiled extension's call it was, rarely, lost or reported twice (exit 0 or
     # death by SIGINT instead of 130; seen with the numba kernels loaded, ~1 run in 25 under load).

@@ -86,3 +86,18 @@ def bound_config(step_length_m: float = 0.12, k_x_n_m: float = 800.0, duration_s
     return BoundConfig(duration_s=duration_s, gait=params, world=world, spine=gains(k_x_n_m),
                        spine_schedule=schedule(), spine_rate_hz=AUTHORS_CONTROL_HZ, spine_timing="authors",
                        spine_params=spine_params(), spine_torso_accel=False, settle_s=0.0)
+
+
+def node_config():
+    """The spine node for their run (`bound --spine node`): no soft start (their controller has full gains
+    from its first call) and the dog's joint range (the SPARC module's limits would damp the dog's
+    spine, whose joints range over +-10 rad)."""
+    import numpy as np
+
+    from spine_module.node import NodeConfig
+    from spine_module.safety import SafetyConfig
+
+    sp = spine_params()
+    lower = np.array([sp.lower_rad[q] for q in P.ACTUATED_JOINTS])
+    upper = np.array([sp.upper_rad[q] for q in P.ACTUATED_JOINTS])
+    return NodeConfig(safety=SafetyConfig(soft_start_s=0.0, lower=lower, upper=upper))

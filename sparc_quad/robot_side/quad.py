@@ -18,7 +18,8 @@ from sparc_quad.robot_side.loop import RobotConfig, RobotSide
 from sparc_quad.robot_side.plants import QuadPlant
 from sparc_quad.robot_side.ports import InProcessPort, LcmPort, Port
 from sparc_quad.robot_side.states import states_arrays
-from sparc_quad.sim.spine_drive import SpineGains, TaskKinematics
+from sparc_quad.sim.quadruped_world import EstimatorOutput
+from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, TaskKinematics
 from spine_module import params as P
 from spine_module.buses.inprocess import InProcessBus, InProcessLink
 from spine_module.messages import Mode, SpineCommand, SpineState
@@ -39,26 +40,41 @@ class NodeSpine:
     def __init__(self, port: Port, gains: SpineGains, friction: bool = False,
                  node: SpineNode | None = None, node_io: InProcessNodeIO | None = None,
                  lockstep: bool = True, dt_s: float = P.CONTROL_PERIOD_S,
-                 config: RobotConfig | None = None) -> None:
+                 config: RobotConfig | None = None, schedule: SpineSchedule | None = None,
+                 spine: P.SpineParams | None = None, torso_accel: bool = True) -> None:
+        """`schedule`: the authors' gain switch, sent as spine commands (the first ones carry k0, d0, x_d0;
+        from `switch_s` the run's gains and x_d1, at the next command period). `spine`: the model the
+        logged task pose uses (and an in-process node's controllers). `torso_accel` False sends q̈1 = 0."""
         self.port, self.node, self.node_io = port, node, node_io
         self.lockstep = lockstep
         self.plant = QuadPlant(dt_s)
-        command = SpineCommand(mode=Mode.IMPEDANCE, x_d=np.array(P.X_EQUILIBRIUM, dtype=float),
-                               k=np.array(gains.k, dtype=float), d=np.array(gains.d, dtype=float),
-                               friction_compensation=friction)
+        self.gains, self.friction, self.schedule = gains, friction, schedule
+        self._switched = schedule is None
+        if schedule is None:
+            command = self._command(gains.k, gains.d, P.X_EQUILIBRIUM)
+        else:
+            command = self._command(gains.k if schedule.k0 is None else schedule.k0, schedule.d0,
+                                    (schedule.x_d0_m, schedule.z_d_m, 0.0))
+        self._torso_accel = torso_accel
         cosim = (lambda k, t: node.tick(t, node.receive(0.0))) if node is not None else None
         self.robot = RobotSide(self.plant, port, command,
                                config if config is not None else RobotConfig(name="quad-robot"), cosim)
-        self.kinematics = TaskKinematics()
+        self.kinematics = TaskKinematics(spine)
         self.x = self.kinematics.x
         self._q = np.zeros(4)
         self._final_states: list[SpineState] | None = None
+
+    def _command(self, k, d, x_d) -> SpineCommand:
+        return SpineCommand(mode=Mode.IMPEDANCE, x_d=np.array(x_d, dtype=float), k=np.array(k, dtype=float),
+                            d=np.array(d, dtype=float), friction_compensation=self.friction)
 
     @classmethod
     def inprocess(cls, gains: SpineGains, friction: bool = False, node_config: NodeConfig | None = None,
                   **kw) -> NodeSpine:
         link, io = InProcessLink(), InProcessNodeIO()
-        node = SpineNode(Controllers.default(), InProcessBus(link), io, node_config)
+        spine = kw.get("spine")
+        controllers = Controllers.default() if spine is None else Controllers.default(spine)
+        node = SpineNode(controllers, InProcessBus(link), io, node_config)
         return cls(InProcessPort(link, io), gains, friction, node=node, node_io=io, **kw)
 
     @classmethod
@@ -74,6 +90,12 @@ class NodeSpine:
         """First half of a tick: publish it to the node. Whatever needs only this tick's state (here the
         task kinematics; in `run_bound` the gait) runs before `finish`, while a node in another process
         computes the answer."""
+        if not self._switched and t_sim >= self.schedule.switch_s:
+            sch = self.schedule
+            self.robot.command = self._command(self.gains.k, self.gains.d, (sch.x_d1_m, sch.z_d_m, 0.0))
+            self._switched = True
+        if not self._torso_accel:
+            est = EstimatorOutput(est.q1, est.dq1, 0.0)
         self.plant.set(est, q_spine, dq_spine)
         self.robot.publish_tick()
         self._q[0] = est.q1

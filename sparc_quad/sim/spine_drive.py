@@ -57,10 +57,10 @@ class TaskKinematics:
     """The spine's task pose and velocity (x, z, theta in the hind-body frame) from `SpineModel`, for
     drives that run no task controller of their own. `x` and `dx` are updated in place."""
 
-    def __init__(self) -> None:
+    def __init__(self, spine: P.SpineParams | None = None) -> None:
         from spine_module.model import SpineModel
 
-        self.model = SpineModel()
+        self.model = SpineModel() if spine is None else SpineModel(spine)
         self.data = self.model.create_data()
         self.x, self.dx = self.data.x, self.data.dx
 
