@@ -136,7 +136,7 @@ def config_from_args(args: argparse.Namespace):
         world = replace(cfg.world, slope_rad=args.slope, seed=args.seed,
                         imu=imu if imu != ImuConfig() else cfg.world.imu)
         return replace(cfg, world=world,
-                       rigid_spine=args.rigid_spine, spine_variant=args.spine_variant,
+                       spine_variant="rigid" if args.rigid_spine else args.spine_variant,
                        friction_compensation=args.friction_comp, stop_on_fall=False, realtime=args.realtime,
                        backend=args.backend)
     spine = SpineGains(k=stiffness(args), d=damping(args))

@@ -131,9 +131,11 @@ def test_the_spine_node_receives_the_schedule_as_commands():
         assert list(c.k) == list(cfg.spine.k) and list(c.d) == list(sch.d0)
         assert list(c.x_d) == [sch.x_d0_m, sch.z_d_m, 0.0]
         est = EstimatorOutput(0.0, 0.1, 250.0)
-        sp(est, [-0.6, 1.2, -0.6], [0.0, 0.0, 0.0], 3.999)
+        sp.begin(est, [-0.6, 1.2, -0.6], [0.0, 0.0, 0.0], 3.999)
+        sp.finish()
         assert sp.robot.command is c and sp.plant.torso().ddq1 == 0.0
-        sp(est, [-0.6, 1.2, -0.6], [0.0, 0.0, 0.0], 4.0)
+        sp.begin(est, [-0.6, 1.2, -0.6], [0.0, 0.0, 0.0], 4.0)
+        sp.finish()
         c = sp.robot.command
         assert list(c.d) == list(cfg.spine.d) and list(c.x_d) == [sch.x_d1_m, sch.z_d_m, 0.0]
     finally:
