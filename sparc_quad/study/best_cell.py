@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from sparc_quad.study.stats import falls_more, paired_difference
 
+BASELINES = ("rigid", "rigid-impedance")
+# what a spine is fairly compared with: a motor-rendered one with the same actuator made stiff, a
+# passive spring-damper with the locked joint
+BASELINE_OF = {"impedance": "rigid-impedance", "passive": "rigid"}
+
 
 def best_of(cs: list, n_boot: int = 400) -> tuple:
     """Of report `Cell`s: the lowest-mean cell among those on speed that do not fall more often than

@@ -23,7 +23,7 @@ from collections import defaultdict
 import numpy as np
 
 from sparc_quad.metrics import ELEC_SENSITIVITY
-from sparc_quad.study.best_cell import best_of
+from sparc_quad.study.best_cell import BASELINE_OF, BASELINES, best_of
 from sparc_quad.study.stats import CONFIDENCE, paired_difference
 
 HEADLINE = "cot_pos_total"
@@ -118,8 +118,10 @@ def _ref_panel(panels: list[dict]) -> dict | None:
 
 def _why_untested(cs: list, left: dict) -> str:
     n, nf = sum(c.n for c in cs), sum(c.n_fell for c in cs)
-    off = len(left.get("off_speed", []))
-    return f"no cell to judge: {nf}/{n} trials fell, {off} cells off speed"
+    off = left.get("off_speed", [])
+    speeds = sorted(c.extras.get("speed_m_s") or 0.0 for c in off)
+    txt = f"{speeds[0]:.2f}-{speeds[-1]:.2f} m/s" if speeds else ""
+    return f"no cell to judge: {nf}/{n} trials fell, {len(off)} cells off speed {txt}".rstrip()
 
 
 def _best_k_rule(analysis, panel, spine, k_range, claim, base) -> dict:
@@ -209,7 +211,9 @@ def _saving_verdict(lo, hi) -> str:
     return "not resolved"
 
 
-def _c3(analysis, ref, spine, base, metric: str, claim: str) -> dict:
+def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> dict:
+    """Best on-speed compliant cell against the on-speed baseline nearest the target, over the panels of
+    `family_panels` (one panel, or the step-length family of gait A), paired by seed."""
     if abs(ref["target_speed_m_s"] - REF_SPEED_M_S) > REF_SPEED_TOLERANCE_M_S:
         return {
             **base,
@@ -217,34 +221,69 @@ def _c3(analysis, ref, spine, base, metric: str, claim: str) -> dict:
             "verdict": "not tested",
             "finding": f"no 0.9 m/s panel (nearest target {ref['target_speed_m_s']:.2f} m/s)",
         }
-    cs = _cells(analysis, ref["panel"], spine, metric)
+    names = {p["panel"] for p in family_panels}
+    cs = [c for n in names for c in _cells(analysis, n, spine, metric)]
     best, _, left = best_of(cs)
-    if best is None or best.diff_pct is None:
+    if best is None:
+        return {**base, "claim": claim, "verdict": "not tested", "finding": _why_untested(cs, left)}
+    bases = [
+        c
+        for c in analysis["cells"]
+        if c.panel in names
+        and c.metric == metric
+        and c.est is not None
+        and c.spine in (BASELINE_OF[spine], *BASELINES)
+    ]
+    on = [c for c in bases if not c.off_speed]
+    pick = [c for c in on if c.spine == BASELINE_OF[spine]] or on
+    if not pick:
+        speeds = ", ".join(f"{c.spine} {c.extras.get('speed_m_s') or 0:.2f}" for c in bases) or "none ran"
         return {
             **base,
             "claim": claim,
             "verdict": "not tested",
-            "finding": _why_untested(cs, left) if best is None else "no baseline in the panel",
+            "finding": f"no baseline within 0.05 m/s of {ref['target_speed_m_s']:.2f} m/s ({speeds} m/s): "
+            "no matched-speed comparison",
         }
-    d = best.diff_pct
-    text = (
-        f"{ref['panel']}: best ({_g(best.k)}, {_g(best.d)}) against {best.baseline} "
-        f"{_ci(d.value, d.lo, d.hi, 0, ' %')} over {d.n_seeds} seeds at "
-        f"{best.extras.get('speed_m_s') or 0:.2f} m/s"
-    )
+    t = ref["target_speed_m_s"]
+    b = min(pick, key=lambda c: abs((c.extras.get("speed_m_s") or 0) - t))
+    d = paired_difference(best.seeds, b.seeds)
+    if d is None:
+        return {
+            **base,
+            "claim": claim,
+            "verdict": "not tested",
+            "finding": "no seed in common with the baseline",
+        }
+
+    def where(c) -> str:
+        return f"{c.panel} ({_g(c.k)}, {_g(c.d)}) at {c.extras.get('speed_m_s') or 0:.2f} m/s"
+
+    text = f"{where(best)} against {b.spine} {where(b)}: {_ci(d.value, d.lo, d.hi, 0, ' %')}, "
+    text += f"{d.n_seeds} seeds"
     if metric == ELEC:
         sens = []
         for c, scale in ELEC_SENSITIVITY.items():
-            other = next(
+            mb = next(
                 (
                     x
-                    for x in _cells(analysis, ref["panel"], spine, f"cot_{c}_total")
-                    if (x.k, x.d) == (best.k, best.d) and x.diff_pct is not None
+                    for x in analysis["cells"]
+                    if x.metric == f"cot_{c}_total"
+                    and x.panel == best.panel
+                    and (x.spine, x.k, x.d) == (best.spine, best.k, best.d)
                 ),
                 None,
             )
-            if other is not None:
-                o = other.diff_pct
+            mr = next(
+                (
+                    x
+                    for x in analysis["cells"]
+                    if x.metric == f"cot_{c}_total" and x.panel == b.panel and x.spine == b.spine
+                ),
+                None,
+            )
+            o = paired_difference(mb.seeds, mr.seeds) if mb is not None and mr is not None else None
+            if o is not None:
                 sens.append(f"c x {scale:g}: {_ci(o.value, o.lo, o.hi, 0, ' %')}")
         text += "; winding constants " + ("; ".join(sens) if sens else "–")
     return {
@@ -253,6 +292,7 @@ def _c3(analysis, ref, spine, base, metric: str, claim: str) -> dict:
         "verdict": _saving_verdict(d.lo, d.hi),
         "best_k": best.k,
         "best_d": best.d,
+        "baseline": b.spine,
         "diff_pct": d.value,
         "diff_lo": d.lo,
         "diff_hi": d.hi,
@@ -407,8 +447,8 @@ def evaluate(analysis: dict) -> list[dict]:
                 low = min(lows, key=lambda p: p["target_speed_m_s"]) if lows else None
                 out.append(_best_k_rule(analysis, ref, spine, C1_K, "C1", base))
                 out.append(_c2(analysis, ref, family, spine, base))
-                out.append(_c3(analysis, ref, spine, base, HEADLINE, "C3"))
-                out.append(_c3(analysis, ref, spine, base, ELEC, "C3e"))
+                out.append(_c3(analysis, ref, family, spine, base, HEADLINE, "C3"))
+                out.append(_c3(analysis, ref, family, spine, base, ELEC, "C3e"))
                 out.append(_c4(analysis, ref, low, spine, base))
                 out.append(_f1(analysis, ref, spine, base))
             for claim, sign, k_range in (("C5", -1, C5_K), ("C6", 1, C6_K)):

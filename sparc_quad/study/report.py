@@ -6,8 +6,9 @@ Baselines: a motor-rendered spine (impedance) is compared with `rigid-impedance`
 stiff, paying its holding torque), a passive spring-damper with the locked joint (`rigid`); when a panel
 lacks the matching one the other is used and the cell says which (`baseline`).
 
-Matched speed: a panel's target is its commanded `speed` (Raibert gaits) or, for the sine gait (speed
-emergent), its locked/rigid baseline's mean speed; a cell whose mean speed is more than
+Matched speed: a panel's target is its `speed` (commanded for the Raibert gaits; for the sine gait, whose
+speed is emergent, the spec's target, reached or not per cell: over a step-length factor the claims compare
+on-speed cells of any L), else its locked baseline's mean speed; a cell whose mean speed is more than
 SPEED_TOLERANCE_M_S from it is `off_speed`, left out of best-cell and %-vs-baseline judgements and listed
 apart.
 
@@ -28,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from sparc_quad.metrics import COTS, ELEC_SENSITIVITY, GROUPS, TABLE
-from sparc_quad.study.best_cell import best_of
+from sparc_quad.study.best_cell import BASELINE_OF, BASELINES, best_of
 from sparc_quad.study.records import atomic_write_text, jsonable, read_record
 from sparc_quad.study.report_plots import natural_frequencies, write_plots
 from sparc_quad.study.spec import SPINE_GAIN_KEYS
@@ -50,8 +51,6 @@ EXTRA = (
 )
 if not set(METRICS + EXTRA) <= set(TABLE):
     raise ImportError(f"report metrics not in sparc_quad.metrics.TABLE: {set(METRICS + EXTRA) - set(TABLE)}")
-BASELINES = ("rigid", "rigid-impedance")
-BASELINE_OF = {"impedance": "rigid-impedance", "passive": "rigid"}
 SPEED_TOLERANCE_M_S = 0.05
 
 
@@ -211,9 +210,11 @@ def _baseline_for(spine: str, present: set[str]) -> str | None:
 
 
 def panel_target(config: dict, base_speed: float | None) -> tuple[float | None, str]:
-    """The speed a panel's cells are judged at, and where it comes from."""
-    if config.get("gait") != "sine" and isinstance(config.get("speed"), int | float):
-        return float(config["speed"]), "commanded"
+    """The speed a panel's cells are judged at, and where it comes from: the commanded speed, or for the
+    sine gait (speed emergent) the spec's `speeds` label, else the locked baseline's mean speed."""
+    if isinstance(config.get("speed"), int | float):
+        how = "commanded" if config.get("gait") != "sine" else "the spec's target (speed emergent)"
+        return float(config["speed"]), how
     if base_speed is not None:
         return base_speed, "emergent: the baseline's mean speed"
     return None, "emergent, no baseline"
