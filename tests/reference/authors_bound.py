@@ -1,14 +1,22 @@
 """The SPARC authors' quadruped bound, re-expressed and run headless in MuJoCo: the reference gait A is
 checked against.
 
-Source (logic re-expressed here, no code copied): github.com/YueWang996/sparc, commit d9639f5,
-`mujoco_simulation/main_robot.py` (sha256 70566aff5bd992462bb4758dd0e1798683b1caf85c85113d8e7ac0eea36f3f41),
-`mujoco_simulation/dog_controller_no_cpg.py` (sha256 8c028d2f...6fc04d243b),
-`mujoco_simulation/spine_impedance_controller.py` (sha256 352d411d...f9b2ef), run on
-`mujoco_simulation/asset/spined_dog.xml` (sha256 75ac2f04...c887d3); the spine law's model is
-`asset/spined_dog_spine_dyn.urdf` (sha256 20fee0c5...499629c): hind body, three spine joints, front body,
-no legs. Copyright (c) 2026 YueWang996, MIT licence (the notice and permission text are in the
-repository's LICENSE): this module carries their controller's logic and numbers.
+Source (logic re-expressed here, no code copied): github.com/YueWang996/sparc, commit d9639f5, files
+(sha256 of `git show d9639f5:<path>`):
+  mujoco_simulation/main_robot.py
+    70566aff5bd992462bb4758dd0e1798683b1caf85c85113d8e7ac0eea36f3f41
+  mujoco_simulation/dog_controller_no_cpg.py
+    8c028d2f23b57bbd2b173e8c95e3bd36e4961203bfcee54fb513ab6fc04d243b
+  mujoco_simulation/spine_impedance_controller.py
+    352d411da5a2c57449de8469cfb91dc48a22a9876435b489a8bf39290ff9b2ef
+  mujoco_simulation/asset/spined_dog.xml
+    75ac2f0460f40a8d8b024e8b73658a90c49057239d3beb5e87fbd9c11cc887d3
+  mujoco_simulation/asset/spined_dog_spine_dyn.urdf
+    20fee0c50b84b4ccca65662698c5313ebaa88005407bbdafa6e5fdfb2499629c
+run on their MJCF; the spine law's model is their spine-only URDF (hind body, three spine joints, front
+body, no legs), built here from the MJCF's own numbers. Copyright (c) 2026 YueWang996, MIT licence (the
+notice and permission text are in the repository's LICENSE): this module carries their controller's logic
+and numbers.
 
 What it reproduces, as their code runs it:
 - the MuJoCo loop: control when `data.time - last >= 1/200` (float clock: every 5 or 6 steps, ~182 Hz),
