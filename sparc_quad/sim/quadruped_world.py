@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from sparc_quad.robots import ROBOTS_DIR
-from sparc_quad.sim.hosts import DEFAULT_HOST
+from sparc_quad.sim.hosts import DEFAULT_HOST, host_files
 from sparc_quad.sim.imu import ImuConfig
 from spine_module import params as P
 
@@ -126,9 +126,11 @@ class QuadWorld(ABC):
 
     engine: str = ""
 
-    def __init__(self, cfg: WorldConfig, meta: dict):
-        self.cfg = cfg
-        self.meta = meta
+    def __init__(self, cfg: WorldConfig | None = None, robots_dir: Path = ROBOTS_DIR):
+        """The shared part: the host's files (`self.files`) and metadata, the estimator, the clock."""
+        self.cfg = cfg = cfg or WorldConfig()
+        self.files = host_files(cfg.host, robots_dir)
+        self.meta = meta = load_meta(self.files.meta)
         self.legs = meta["legs"]
         self.rng = np.random.default_rng(cfg.seed)
         self.estimator = Estimator(cfg.imu, cfg.dt_s, self.rng)

@@ -23,12 +23,10 @@ import numpy as np
 
 from sparc_quad.robots import ROBOTS_DIR
 from sparc_quad.sim import spined_dog
-from sparc_quad.sim.hosts import host_files
 from sparc_quad.sim.quadruped_world import (
     ABSENT,
     QuadWorld,
     WorldConfig,
-    load_meta,
     quat_about_y,
 )
 
@@ -81,9 +79,8 @@ class MujocoWorld(QuadWorld):
     engine = "mujoco"
 
     def __init__(self, cfg: WorldConfig | None = None, robots_dir: Path = ROBOTS_DIR):
-        cfg = cfg or WorldConfig()
-        files = host_files(cfg.host, robots_dir)
-        super().__init__(cfg, load_meta(files.meta))
+        super().__init__(cfg, robots_dir)
+        cfg, files = self.cfg, self.files
         meta = self.meta
         spec = mujoco.MjSpec.from_file(str(files.mjcf)) if files.mjcf else _from_urdf(files.urdf, meta)
         _options(spec, cfg)

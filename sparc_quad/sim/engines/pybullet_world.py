@@ -16,12 +16,10 @@ import pybullet as pb
 import pybullet_data
 
 from sparc_quad.robots import ROBOTS_DIR
-from sparc_quad.sim.hosts import host_files
 from sparc_quad.sim.quadruped_world import (
     ABSENT,
     QuadWorld,
     WorldConfig,
-    load_meta,
     pitch_of,
     quat_about_y,
 )
@@ -33,9 +31,8 @@ class PybulletWorld(QuadWorld):
     engine = "pybullet"
 
     def __init__(self, cfg: WorldConfig | None = None, robots_dir: Path = ROBOTS_DIR):
-        cfg = cfg or WorldConfig()
-        files = host_files(cfg.host, robots_dir)
-        super().__init__(cfg, load_meta(files.meta))
+        super().__init__(cfg, robots_dir)
+        cfg, files = self.cfg, self.files
         urdf_path = files.urdf
         self.client = pb.connect(pb.DIRECT)
         c = self.client
