@@ -3,6 +3,7 @@ arrow against the layering.
 
     spine_module            runs on the robot: never imports sparc_quad, the simulator, plotting or stats
     sparc_quad.robots       where the URDFs live: imports nothing of sparc_quad
+    sparc_quad.effects      the effect library and plant file (below sim and gap): imports neither
     sparc_quad.sim          the simulator: never imports robot_side/, experiments/, gap/, study/ or cli/
     sparc_quad.robot_side   the robot's side of the spine interface (above sim): never imports experiments/,
                             gap/, study/ or cli/
@@ -172,6 +173,8 @@ def test_known_exceptions_still_exist():
                       "statsmodels", "tqdm", "example_robot_data", "cma", "dask")),
     ("sparc_quad.robots", ("sparc_quad.sim", "sparc_quad.experiments", "sparc_quad.gap", "sparc_quad.study",
                            "sparc_quad.cli", "sparc_quad.gaits")),
+    ("sparc_quad.effects", ("sparc_quad.sim", "sparc_quad.gap", "sparc_quad.robot_side",
+                            "sparc_quad.experiments", "sparc_quad.study", "sparc_quad.cli", "pybullet")),
     ("sparc_quad.sim", ("sparc_quad.robot_side", "sparc_quad.experiments", "sparc_quad.gap",
                         "sparc_quad.study", "sparc_quad.cli")),
     ("sparc_quad.robot_side", ("sparc_quad.experiments", "sparc_quad.gap", "sparc_quad.study",

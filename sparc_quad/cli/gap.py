@@ -14,14 +14,14 @@ from pathlib import Path
 
 from sparc_quad.cli.args import nonnegative_int, positive_float, positive_int
 from sparc_quad.cli.output import atomic_dir, moved
-from sparc_quad.sim.plant_effects import EFFECT_NAMES
+from sparc_quad.effects import names as effect_names
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "gap", help="sim-vs-measured gap: locate, name the missing effect, write a plant file",
         description="gap TRIAL... --out DIR | gap synth --effect NAME[:joint=..,param=..] --out DIR. "
-                    f"Effects: {', '.join(EFFECT_NAMES)}.")
+                    f"Effects: {', '.join(effect_names())}.")
     p.add_argument("trials", nargs="+", metavar="TRIAL",
                    help="trial CSVs (sidecar JSON with the same stem) or lcm-logger files; "
                         "or the word 'synth' (spine) or 'synth-arm' (6-DoF arm) to make trials")
@@ -54,8 +54,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from sparc_quad.effects import PlantEffectsError
     from sparc_quad.gap.errors import NumericalError, TrialError
-    from sparc_quad.sim.plant_effects import PlantEffectsError
 
     try:
         if args.trials == ["synth"]:

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from sparc_quad.effects.plant import PlantEffects
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial
-from sparc_quad.sim.plant_effects import PlantEffects
 
 
 def replay(trial: Trial, robot: Robot, plant: PlantEffects, window_s: float = 0.2) -> dict:

@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from sparc_quad.effects import kind
 from sparc_quad.gap.regimes import REGIMES
 
 
@@ -113,7 +114,7 @@ def markdown(report: dict, robot) -> str:
     if report["effects"]:
         L += ["| effect | joint | parameters (SI) | dBIC | held-out improvement % |", "|---|---|---|---|---|"]
         for e in report["effects"]:
-            ps = ", ".join(f"{k}={v if isinstance(v, list) else _fmt(v)}" for k, v in e["params"].items())
+            ps = kind(e["name"]).format_params(e["params"])
             L.append(f"| {e['name']} | {e['joint']} | {ps} | {_fmt(e['delta_bic'])} | "
                      f"{_fmt(e['heldout_improvement_pct'])} |")
     else:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from sparc_quad.sim.plant_effects import PlantEffects
+from sparc_quad.effects.plant import PlantEffects
 
 log = logging.getLogger(__name__)
 SINGULAR_REL = 1e-9  # a mass-matrix diagonal entry below this x the largest is taken as zero

@@ -9,6 +9,8 @@ whose removal costs less than BIC_MIN, that no longer improves its joints' held-
 parameters became implausible in the joint fit, is dropped (a surrogate that an added physical effect has
 made redundant goes). Model sets already visited are not revisited, so the search ends.
 
+Each effect kind says which roles it takes in the search (`sparc_quad.effects.base.EffectKind`: alone on
+every joint, in the expected group, as a refinement, its own options) and its plausibility bounds.
 Plausibility bounds are scaled from the robot and the data (per joint: torque range = max(URDF effort
 limit, peak |torque|), RMS velocity and acceleration while moving; the robot's total mass), not from the
 spine. With `torque_kind: measured`, effects that act on the command (delay, deadband, saturation) are
@@ -23,24 +25,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sparc_quad.gap.identify import (
-    AMBIGUOUS_BIC,
-    BIC_MIN,
-    HELDOUT_MIN_PCT,
-    HELDOUT_TIE,
-    MIN_CONTRIBUTION,
-    Fit,
-    Selector,
-    Term,
-    term_effect,
-    term_params,
-)
-from sparc_quad.sim.plant_effects import COUPLED, EFFECT_NAMES, PlantEffectsError
+from sparc_quad.effects import EFFECTS, Term
+from sparc_quad.gap.fitting import Fit, Selector
 
-ON_COMMAND = ("time_delay", "torque_saturation", "torque_deadband")
-GROUP = ("coulomb_friction", "viscous_friction", "rotor_inertia")
-MULTI_JOINT = ("payload_mass", "encoder_offset", "link_inertia", *COUPLED)
-SATURATED_FRACTION = (0.005, 0.30)
+BIC_MIN = 10.0
+HELDOUT_MIN_PCT = 1.0
+AMBIGUOUS_BIC = 6.0
+HELDOUT_TIE = 1.1  # held-out MSE ratio under which two training-tied candidates stay ambiguous
+MIN_CONTRIBUTION = 0.3  # an effect smaller than this x the noise floor changes the gap by < 5 %: not named
+
+
+def expected_group() -> tuple[str, ...]:
+    """The physically expected effects, tried together per joint (Coulomb, viscous, rotor inertia)."""
+    return tuple(n for n, k in EFFECTS.items() if k.EXPECTED)
 
 
 @dataclass
@@ -81,49 +78,10 @@ def scales(sel: Selector) -> tuple[dict[str, JointScale], float]:
 
 def plausible(t: Term, sc: JointScale, total_mass_kg: float) -> str | None:
     """None when the fitted parameters are physically possible for this robot, else the reason."""
-    p, se = term_params(t)
-    b_max = sc.tau_range / max(sc.dq_rms, 1e-3)
-    i_max = sc.tau_range / max(sc.ddq_rms, 1e-3)
-    m_max = max(2.0 * total_mass_kg, 1.0)
-    checks = {
-        "coulomb_friction": (0 < p.get("tau_c_nm", 0) < 0.5 * sc.tau_range,
-                             f"Coulomb friction must be in (0, {0.5 * sc.tau_range:.3g}) N*m"),
-        "viscous_friction": (0 < p.get("b_nm_s_rad", 0) < b_max,
-                             f"viscous coefficient must be in (0, {b_max:.3g}) N*m*s/rad"),
-        "stribeck_friction": (0 < p.get("tau_s_nm", 0) < 0.5 * sc.tau_range
-                              and 1e-3 <= p.get("dq_s_rad_s", 0) <= 5 * max(sc.dq_rms, 1.0),
-                              "Stribeck excess must be positive, its velocity within the data's range"),
-        "rotor_inertia": (0 < p.get("inertia_kg_m2", 0) < i_max,
-                          f"rotor inertia must be in (0, {i_max:.3g}) kg*m^2"),
-        "torque_gain": (0.3 < p.get("gain", 0) < 1.5, "torque gain must be in (0.3, 1.5)"),
-        "torque_offset": (abs(p.get("offset_nm", 0)) < 0.25 * sc.tau_range,
-                          "offset beyond a quarter of the torque range"),
-        "time_delay": (0 < p.get("delay_s", 0) <= 0.05, "delay must be in (0, 50 ms]"),
-        "payload_mass": (0 < p.get("mass_kg", 0) < m_max, f"payload mass must be in (0, {m_max:.3g}) kg"),
-        "encoder_offset": (abs(p.get("offset_rad", 0)) < 0.5, "encoder offset beyond 0.5 rad"),
-        "torque_saturation": (0 < p.get("limit_nm", 0) < sc.tau_peak,
-                              "limit must lie below the peak command"),
-        "torque_deadband": (0 < p.get("width_nm", 0) < 0.5 * sc.tau_peak,
-                            "deadband must be below half the peak"),
-        "link_inertia": (np.isfinite(p.get("delta", np.nan)), "not finite"),
-        "asymmetric_coulomb": (abs(p.get("delta_nm", 0)) < 0.5 * sc.tau_range,
-                               "Coulomb asymmetry beyond half the torque range"),
-        "coupled_rotor_inertia": (0 < p.get("inertia_kg_m2", 0) < i_max,
-                                  f"coupled rotor inertia must be in (0, {i_max:.3g}) kg*m^2"),
-        "coupled_coulomb_friction": (0 < p.get("tau_c_nm", 0) < 0.5 * sc.tau_range,
-                                     "coupled Coulomb friction must be in (0, torque range / 2)"),
-        "coupled_viscous_friction": (0 < p.get("b_nm_s_rad", 0) < b_max,
-                                     f"coupled viscous coefficient must be in (0, {b_max:.3g})"),
-    }
-    ok, why = checks[t.name]
-    if not ok:
+    p, se = t.params()
+    why = t.kind.plausible(p, sc, total_mass_kg)
+    if why:
         return why
-    if t.name == "torque_saturation":
-        frac = float(np.mean(sc.abs_tau > p["limit_nm"]))
-        lo, hi = SATURATED_FRACTION
-        if not lo <= frac <= hi:
-            return (f"commanded torque exceeds the limit on {100 * frac:.1f} % of the samples (a clipped "
-                    f"signature needs {100 * lo:.1f}-{100 * hi:.0f} %)")
     for k, v in se.items():
         val = p[k]
         if isinstance(val, float) and np.isfinite(v) and abs(val) < 2 * v:
@@ -139,15 +97,15 @@ class Search:
         self.sel = sel
         self.rb = sel.robot
         self.scale, self.mass = scales(sel)
-        self.names = [n for n in EFFECT_NAMES if not (torque_kind == "measured" and n in ON_COMMAND)
-                      and n not in COUPLED and n not in ("asymmetric_coulomb", "link_inertia")]
+        self.kinds = [k for k in EFFECTS.values() if not (torque_kind == "measured" and k.ON_COMMAND)]
+        self.names = [k.NAME for k in self.kinds if k.SINGLE]
         self.couplings = list(couplings)
         self.log: list[dict] = []
 
     def joints_of(self, t: Term) -> list[int]:
         if t.direction is not None:
             return [int(v) for v in self.rb.act_idx[np.abs(t.direction) > 0]]
-        if t.name in MULTI_JOINT:
+        if t.kind.ACTS_ON != "joint":
             return list(range(self.rb.nv))
         return [int(self.rb.act_idx[self.rb.actuated.index(t.joint)])]
 
@@ -182,23 +140,15 @@ class Search:
             tot = col if tot is None else tot + col
         return float(np.max(np.sqrt(np.mean(tot**2, axis=0))))
 
-    def significant(self, selected: list[Term], terms: list[Term]) -> list[Term]:
-        """Of a link's base parameters, those > 2 standard errors when fitted together (all if none)."""
-        self.assign([*selected, *terms])
-        keep = [t for t in terms if np.isfinite(t.se) and abs(t.coef) > 2 * t.se]
-        return keep or terms
-
     def why_not(self, terms: list[Term], fit: Fit) -> str | None:
         for t in terms:
             why = plausible(t, self.scale[t.joint], self.mass)
             if why:
                 return f"{t.name}@{t.joint}: {why}"
-        links = [term_effect(t) for t in fit.terms if t.name == "link_inertia"]
-        if links:  # the corrected bodies must still have a positive mass
-            try:
-                self.sel.lib.nominal.with_effects(links).apply_to_pinocchio(self.rb.model)
-            except PlantEffectsError as exc:
-                return str(exc)
+        for k in dict.fromkeys(t.kind for t in fit.terms):
+            why = k.model_problem(self, fit)
+            if why:
+                return why
         return None
 
     def candidates(self, selected: list[Term], cur: Fit, visited: set) -> list[tuple]:
@@ -210,26 +160,15 @@ class Search:
             for joint in self.rb.actuated:
                 if (name, joint) not in taken:
                     options.append((name, joint))
+        group = [n for n in expected_group() if n in self.names]
         for joint in self.rb.actuated:
-            rest = [n for n in GROUP if (n, joint) not in taken and n in self.names]
+            rest = [n for n in group if (n, joint) not in taken]
             if len(rest) >= 2:
                 options.append([Term(n, joint) for n in rest])
-            # a direction-dependent Coulomb level refines a Coulomb friction already in the model
-            if ("coulomb_friction", joint) in taken and ("asymmetric_coulomb", joint) not in taken:
-                options.append([Term("asymmetric_coulomb", joint)])
-        for joint in self.rb.actuated:  # link inertial-parameter errors: the body's base parameters
-            base = sel.lib.base_parameters(sel.train)
-            jid = self.rb.model.getJointId(joint)
-            link = [Term("link_inertia", joint, param_index=c, combination=base.combination(c),
-                         link=self.rb.child_link(joint)) for c in base.columns_of(jid)]
-            link = [t for t in link if t.key not in taken]
-            if link:
-                options.append(self.significant(selected, link))
-        for joint, u in self.couplings:  # a motor that turns with several joints (transmission)
-            rest = [Term(n, joint, direction=u) for n in COUPLED if (n, joint) not in taken]
-            options += [[t] for t in rest]
-            if len(rest) >= 2:
-                options.append(rest)
+            for k in self.kinds:
+                options += k.joint_options(self, selected, taken, joint)
+        for k in self.kinds:
+            options += k.options(self, selected, taken)
         for opt in options:
             if isinstance(opt, tuple):
                 term, fit = sel.candidate(selected, *opt)
@@ -269,9 +208,8 @@ class Search:
                 gain = without.bic - cur.bic  # what keeping t is worth
                 imp = self.improvement(cur, without, [t])
                 why = plausible(t, self.scale[t.joint], self.mass)
-                if why is None and t.name == "asymmetric_coulomb" and \
-                        ("coulomb_friction", t.joint) not in {x.key for x in rest}:
-                    why = "refines a Coulomb friction no longer in the model"
+                if why is None and t.kind.REFINES and (t.kind.REFINES, t.joint) not in {x.key for x in rest}:
+                    why = f"refines a {t.kind.REFINES} no longer in the model"
                 if why is None and gain < BIC_MIN:
                     why = f"worth dBIC {-gain:.1f} > -{BIC_MIN} now"
                 if why is None and sel.test and not imp >= HELDOUT_MIN_PCT:
@@ -316,7 +254,7 @@ class Search:
             amb = [{"name": c[1][0].name, "joint": c[1][0].joint,
                     "delta_bic_vs_best": round(c[0] - best[0], 2),
                     "heldout_mse_vs_best": round(c[2].heldout_mse / best[2].heldout_mse, 4),
-                    "params": term_params(c[1][0])[0]} for c in rivals]
+                    "params": c[1][0].params()[0]} for c in rivals]
             selected = list(best[2].terms)
             for t in best[1]:
                 steps.append(StepRecord(t, best[3], best[4], amb))
@@ -346,3 +284,13 @@ def select(sel: Selector, max_effects: int | None = None, torque_kind: str = "co
            couplings: list[tuple[str, np.ndarray]] = ()):
     """(accepted steps, final fit, log) of the stepwise search."""
     return Search(sel, torque_kind, couplings).run(max_effects)
+
+
+def expected_fit(sel: Selector) -> tuple[list[Term], Fit]:
+    """The physically expected model fitted without selection: the expected group on every actuated joint
+    (same data, weights and machinery), coefficients written into the terms."""
+    terms = [Term(n, j) for j in sel.robot.actuated for n in expected_group()]
+    fit = sel.fit(terms, with_se=True)
+    for i, t in enumerate(terms):
+        t.coef, t.se = float(fit.beta[i]), float(fit.se[i])
+    return terms, fit

@@ -23,66 +23,47 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from sparc_quad.effects import Effect, kind
+from sparc_quad.effects.plant import PlantEffects
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial, save_trial
-from sparc_quad.sim.plant_effects import COUPLED, EFFECT_PARAMS, Effect, PlantEffects
 from spine_module import params as P
 from spine_module.messages.motor import MotorCommand
 
 SPINE_URDF = Path(__file__).resolve().parents[2] / "robots" / "sparc_spine" / "sparc_spine.urdf"
 
-# Hidden-effect defaults (SI). Sizes a CyberGear-class joint could plausibly show.
-SYNTH_DEFAULTS: dict[str, dict] = {
-    "coulomb_friction": {"tau_c_nm": 0.15},
-    "viscous_friction": {"b_nm_s_rad": 0.15},
-    "stribeck_friction": {"tau_s_nm": 0.25, "dq_s_rad_s": 0.3},
-    "rotor_inertia": {"inertia_kg_m2": 2.0 * P.REFLECTED_ROTOR_INERTIA_KG_M2},
-    "torque_gain": {"gain": 0.85},
-    "torque_offset": {"offset_nm": 0.1},
-    "time_delay": {"delay_s": 0.008},
-    "payload_mass": {"mass_kg": 0.1},
-    "encoder_offset": {"offset_rad": 0.05},
-    "torque_saturation": {"limit_fraction": 0.8},  # of the joint's peak |tau_cmd| in a nominal run
-    "torque_deadband": {"width_nm": 0.1},
-    "asymmetric_coulomb": {"delta_nm": 0.06},
-    "coupled_rotor_inertia": {"inertia_kg_m2": 2.0 * P.REFLECTED_ROTOR_INERTIA_KG_M2},
-    "coupled_coulomb_friction": {"tau_c_nm": 0.15},
-    "coupled_viscous_friction": {"b_nm_s_rad": 0.15},
-}
+_LISTS = ("xyz_m", "direction")  # list-valued parameters, written u1;u2;...
 
 
 def parse_effect_spec(spec: str, robot: Robot, default_joint: str | None = None) -> Effect:
     """`NAME[:joint=q3,param=value,...]` -> Effect with defaults filled in (SI units)."""
     name, _, rest = spec.partition(":")
-    name = name.strip()
-    if name not in EFFECT_PARAMS:
-        raise ValueError(f"unknown effect {name!r}; known: {', '.join(EFFECT_PARAMS)}")
+    k = kind(name.strip())
     kv: dict[str, str] = {}
     for item in filter(None, (s.strip() for s in rest.split(","))):
-        k, eq, v = item.partition("=")
+        key, eq, v = item.partition("=")
         if not eq:
             raise ValueError(f"{spec!r}: expected key=value, got {item!r}")
-        kv[k.strip()] = v.strip()
+        kv[key.strip()] = v.strip()
     joint = kv.pop("joint", default_joint or robot.actuated[len(robot.actuated) // 2])
     if joint not in robot.actuated:
         raise ValueError(f"{spec!r}: joint {joint!r} is not an actuated joint ({robot.actuated})")
-    params = dict(SYNTH_DEFAULTS[name])
-    for k, v in kv.items():
-        if k in ("xyz_m", "direction"):
-            params[k] = [float(x) for x in v.split(";")]
-        else:
-            params[k] = float(v)
-    link = None
-    if name == "payload_mass":
-        params.setdefault("xyz_m", robot.link_com(joint).tolist())
-        link = robot.child_link(joint)
-    if name in COUPLED and "direction" not in params:
-        raise ValueError(f"{spec!r}: {name} needs direction=u1;u2;... (one entry per actuated joint)")
-    allowed = set(EFFECT_PARAMS[name]) | ({"limit_fraction"} if name == "torque_saturation" else set())
-    unknown = set(params) - allowed
+    allowed = {*k.param_keys(), *k.SYNTH_ONLY}
+    unknown = set(kv) - allowed
     if unknown:
-        raise ValueError(f"{spec!r}: unknown parameter(s) {sorted(unknown)}; {name} takes {sorted(allowed)}")
-    return Effect(name, joint, params, link)
+        raise ValueError(f"{spec!r}: unknown parameter(s) {sorted(unknown)}; {k.NAME} takes "
+                         f"{sorted(allowed)}")
+    given: dict = {}
+    for key, v in kv.items():
+        try:
+            given[key] = [float(x) for x in v.split(";")] if key in _LISTS else float(v)
+        except ValueError:
+            raise ValueError(f"{spec!r}: {key}={v!r} is not a number") from None
+    try:
+        params, link = k.synth_params(given, robot, joint)
+    except ValueError as exc:
+        raise ValueError(f"{spec!r}: {exc}") from None
+    return Effect(k.NAME, joint, params, link)
 
 
 def nominal_spine_plant(joints: Sequence[str]) -> PlantEffects:
@@ -230,14 +211,12 @@ def synth(out: str | Path, effects: Sequence[str | Effect] = (), *, seed: int = 
         exc = [random_excitation(robot, q0, rng, amp_rad, period_s) for _ in range(n_trials)]
     hidden = [e if isinstance(e, Effect) else parse_effect_spec(e, robot) for e in effects]
     duration = periods * period_s
+    def nominal_peak_nm(j: int) -> float:  # peak |tau_cmd| of joint j over the trials, nominal plant
+        return min(np.max(np.abs(simulate(robot, nominal, nominal, ex, period_s, rate_hz,
+                                          np.random.default_rng(0), 0.0).tau_cmd[:, j])) for ex in exc)
+
     for e in hidden:
-        if e.name == "torque_saturation" and "limit_fraction" in e.params:
-            frac = e.params.pop("limit_fraction")
-            j = robot.actuated.index(e.joint)
-            peak = min(np.max(np.abs(simulate(robot, nominal, nominal, ex, period_s, rate_hz,
-                                              np.random.default_rng(0), 0.0).tau_cmd[:, j]))
-                       for ex in exc)
-            e.params.setdefault("limit_nm", float(frac * peak))
+        kind(e.name).resolve_synth(e.params, robot.actuated.index(e.joint), nominal_peak_nm)
     true_plant = nominal.with_effects(hidden)
     unmod_fn = None
     if unmodelled == "cogging":

@@ -32,9 +32,10 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from sparc_quad.effects import EFFECTS, Effect
+from sparc_quad.effects.plant import PlantEffects
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.synth import Excitation
-from sparc_quad.sim.plant_effects import EFFECT_PARAMS, Effect, PlantEffects
 
 JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
           "wrist_3_joint"]
@@ -308,7 +309,7 @@ def true_plant(robot: Robot, truth_: dict) -> PlantEffects:
     """The truth as a plant-effects file (never read by `gap`): the motors' effects as named, and each
     link's scale as `link_inertia` errors of its standard dynamic parameters (all ten scale together)."""
     effects = [Effect(e["name"], e["joint"], e["params"]) for e in truth_["hidden"]
-               if e["name"] in EFFECT_PARAMS]
+               if e["name"] in EFFECTS]
     for e in truth_["hidden"]:
         if e["name"] == "link_inertia_error":
             jid = _joint_of_link(robot.model, e["link"])

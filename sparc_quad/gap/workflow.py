@@ -1,4 +1,8 @@
-"""`gap TRIAL... --out DIR`: noise floor, compare, locate, name, add, report (see identify.py)."""
+"""`gap TRIAL... --out DIR`: filter, residual, noise floor, locate, name (select.py), add, report.
+
+Jobs in order, one module each: filtering.py (blocks), residual.py, noise_floor.py, regressors.py (the
+effects' columns), fitting.py (least squares, BIC, held-out), select.py (which effects to name); the
+effects themselves are sparc_quad.effects."""
 
 from __future__ import annotations
 
@@ -10,13 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.gap import identify as I
+from sparc_quad.effects.plant import PlantEffects
+from sparc_quad.gap import select as S
 from sparc_quad.gap.errors import NumericalError
+from sparc_quad.gap.filtering import Block
+from sparc_quad.gap.fitting import Selector
+from sparc_quad.gap.noise_floor import noise_floor
 from sparc_quad.gap.regimes import REGIMES
+from sparc_quad.gap.regressors import Library
 from sparc_quad.gap.replay import replay
-from sparc_quad.gap.select import GROUP, couplings_from, select
+from sparc_quad.gap.residual import residual
 from sparc_quad.gap.trial import Trial, TrialError, load_trial, robot_for
-from sparc_quad.sim.plant_effects import PlantEffects
 
 log = logging.getLogger(__name__)
 GAP_CLOSED_FACTOR = 1.1
@@ -90,7 +98,7 @@ def split(trials: list[Trial], heldout_fraction: float = 1 / 3) -> tuple[list[Tr
     return [tr.slice(0, cut, "_train"), tr.slice(cut, n, "_heldout")], [False, True]
 
 
-def localise(blocks: list[I.Block], res: list[np.ndarray], floor: np.ndarray, robot) -> dict:
+def localise(blocks: list[Block], res: list[np.ndarray], floor: np.ndarray, robot) -> dict:
     """Rank joints, regimes and time spans by residual size."""
     allr = np.vstack(res)
     rms = np.sqrt(np.mean(allr**2, axis=0))
@@ -145,20 +153,16 @@ def localise(blocks: list[I.Block], res: list[np.ndarray], floor: np.ndarray, ro
     return {"joints": joints, "regimes": regimes, "spans": spans[:8]}
 
 
-def reference_fit(sel: I.Selector, nominal: PlantEffects, ho_blocks: list[I.Block]) -> dict:
-    """The physically expected model fitted without selection: Coulomb + viscous friction + rotor inertia
-    on every actuated joint (same data, weights and machinery). Its held-out residual is the yardstick the
-    selected model is compared with."""
+def reference_fit(sel: Selector, nominal: PlantEffects, ho_blocks: list[Block]) -> dict:
+    """The physically expected model fitted without selection (`select.expected_fit`): its held-out
+    residual is the yardstick the selected model is compared with."""
     robot = sel.robot
-    terms = [I.Term(n, j) for j in robot.actuated for n in GROUP]
-    fit = sel.fit(terms, with_se=True)
-    for i, t in enumerate(terms):
-        t.coef, t.se = float(fit.beta[i]), float(fit.se[i])
-    plant = nominal.with_effects([I.term_effect(t) for t in terms])
-    res = [I.residual(b, plant) for b in ho_blocks]
+    terms, fit = S.expected_fit(sel)
+    plant = nominal.with_effects([t.effect() for t in terms])
+    res = [residual(b, plant) for b in ho_blocks]
     rms = np.sqrt(np.mean(np.vstack(res) ** 2, axis=0))
-    return {"effects": [f"{n} on every actuated joint" for n in GROUP], "bic": round(fit.bic, 2),
-            "fitted": [{"name": t.name, "joint": t.joint, "params": I.term_params(t)[0]} for t in terms],
+    return {"effects": [f"{n} on every actuated joint" for n in S.expected_group()], "bic": round(fit.bic, 2),
+            "fitted": [{"name": t.name, "joint": t.joint, "params": t.params()[0]} for t in terms],
             "id_residual_rms_nm": _per_joint(robot, rms)}
 
 
@@ -192,27 +196,27 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
         P = round(period * rate)
         while step > 1 and P % step:
             step -= 1
-    blocks = [I.Block(p, robot, cutoff_hz, step) for p in parts]
-    res0 = [I.residual(b, nominal) for b in blocks]
-    floor, floor_method = I.noise_floor(blocks, res0)
+    blocks = [Block(p, robot, cutoff_hz, step) for p in parts]
+    res0 = [residual(b, nominal) for b in blocks]
+    floor, floor_method = noise_floor(blocks, res0)
     train = [i for i, h in enumerate(heldout) if not h]
     test = [i for i, h in enumerate(heldout) if h]
     loc = localise(blocks, res0, floor, robot)
-    lib = I.Library(blocks, nominal)
-    sel = I.Selector(lib, train, test, res0, floor)
+    lib = Library(blocks, nominal)
+    sel = Selector(lib, train, test, res0, floor)
     torque_kind = trials[0].torque_kind
-    couplings = couplings_from(trials[0].meta, robot.actuated)
-    steps, final_fit, sel_log = select(sel, max_effects, torque_kind, couplings)
+    couplings = S.couplings_from(trials[0].meta, robot.actuated)
+    steps, final_fit, sel_log = S.select(sel, max_effects, torque_kind, couplings)
     effects, ambiguous, added = [], [], []
     for st in steps:
         t = st.term
-        params, se = I.term_params(t)
+        params, se = t.params()
         entry = {"name": t.name, "joint": t.joint, "params": params, "std_err": se,
                  "delta_bic": round(st.delta_bic, 3),
                  "heldout_improvement_pct": round(st.heldout_improvement_pct, 3)}
         if t.link:
             entry["link"] = t.link
-        eff = I.term_effect(t)
+        eff = t.effect()
         if st.ambiguous_with:
             entry_alt = [{"name": a["name"], "joint": a["joint"], "params": a["params"],
                           "delta_bic_vs_best": a["delta_bic_vs_best"]} for a in st.ambiguous_with]
@@ -225,16 +229,16 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
     plant = nominal.with_effects(added)
     plant.save(out / "plant.json")
     ho_blocks = [blocks[i] for i in (test or train)]
-    res_before = [I.residual(b, nominal) for b in ho_blocks]
-    res_after = [I.residual(b, plant) for b in ho_blocks]
+    res_before = [residual(b, nominal) for b in ho_blocks]
+    res_after = [residual(b, plant) for b in ho_blocks]
     ref = reference_fit(sel, nominal, ho_blocks)
     # noise floor on the held-out blocks, where the gap is measured: the spread across periods of the
     # final model's residual (cleaner than the nominal one's, whose unmodelled effects vary with the
     # small period-to-period state differences; an effect the final model misses and that does not
     # repeat raises it, which the report shows beside the nominal-model estimate)
     floor_all = floor
-    fb, _ = I.noise_floor(ho_blocks, res_before)
-    fa, floor_method = I.noise_floor(ho_blocks, res_after)
+    fb, _ = noise_floor(ho_blocks, res_before)
+    fa, floor_method = noise_floor(ho_blocks, res_after)
     floor = fa
     gap_b = np.sqrt(np.mean(np.vstack(res_before) ** 2, axis=0))
     gap_a = np.sqrt(np.mean(np.vstack(res_after) ** 2, axis=0))
@@ -277,9 +281,9 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
                      "decimation_rule": "one sample per 1 / (2 cutoff): white noise through the low-pass "
                                         "leaves nearly uncorrelated samples",
                      "torque_kind": torque_kind, "max_effects": max_effects,
-                     "window_s": window_s, "bic_min": I.BIC_MIN, "heldout_min_pct": I.HELDOUT_MIN_PCT,
-                     "ambiguous_bic": I.AMBIGUOUS_BIC,
-                     "min_contribution_over_floor": I.MIN_CONTRIBUTION,
+                     "window_s": window_s, "bic_min": S.BIC_MIN, "heldout_min_pct": S.HELDOUT_MIN_PCT,
+                     "ambiguous_bic": S.AMBIGUOUS_BIC,
+                     "min_contribution_over_floor": S.MIN_CONTRIBUTION,
                      "nominal_plant": str(plant_file) if plant_file else None},
         "trials": [{"block": b.trial.name, "heldout": h, "samples": len(b.trial.t), "decimated": b.n}
                    for b, h in zip(blocks, heldout, strict=True)],

@@ -22,9 +22,9 @@ import numpy as np
 import pinocchio as pin
 import pybullet as p
 
+from sparc_quad.effects.plant import PlantEffects
 from sparc_quad.robots import spine_urdf_path
 from sparc_quad.sim.plant import PlantConfig
-from sparc_quad.sim.plant_effects import PlantEffects
 from spine_module import params as P
 from spine_module.buses.base import MotorFeedback
 from spine_module.control.friction import StribeckFriction
@@ -49,8 +49,10 @@ class BenchWorld:
         if effects is not None:  # gap plant effects: check before any resource is taken
             if list(effects.joints) != list(P.ACTUATED_JOINTS):
                 raise ValueError(f"plant-effects joints {effects.joints} != {list(P.ACTUATED_JOINTS)}")
-            if effects.payloads():
-                raise ValueError("payload_mass is not supported by the pybullet bench (use the URDF)")
+            if effects.model_effects():
+                names = sorted({e.name for e in effects.model_effects()})
+                raise ValueError(f"{', '.join(names)} not supported by the pybullet bench (put it in the "
+                                 "URDF)")
         self.plant = plant or PlantConfig()
         self.dt_s = dt_s
         self.rng = np.random.default_rng(seed)
@@ -73,7 +75,7 @@ class BenchWorld:
         self.mdata = self.model.create_data()
         self.armature = np.full(3, self.plant.armature_kg_m2)
         self.friction = StribeckFriction([self.plant.friction] * 3)
-        # --- gap workflow plant effects (`--plant FILE`, sparc_quad/sim/plant_effects.py) -------------
+        # --- gap workflow plant effects (`--plant FILE`, sparc_quad/effects/plant.py) -------------
         self.effects = effects
         if effects is not None:
             effects.reset(dt_s)

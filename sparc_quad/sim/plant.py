@@ -16,8 +16,8 @@ import math
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
-from sparc_quad.sim.plant_effects import SCHEMA as EFFECTS_SCHEMA
-from sparc_quad.sim.plant_effects import PlantEffects
+from sparc_quad.effects.plant import SCHEMA as EFFECTS_SCHEMA
+from sparc_quad.effects.plant import PlantEffects
 from spine_module import params as P
 
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sparc_quad.effects import Effect, PlantEffects, PlantEffectsError
 from sparc_quad.gap.base_params import BaseParameters, regressor
 from sparc_quad.gap.robot import Robot
-from sparc_quad.sim.plant_effects import Effect, PlantEffects, PlantEffectsError
 from tests.paths import DATA
 
 URDF = DATA / "staubli_tx40" / "tx40_mdh_modified.urdf"

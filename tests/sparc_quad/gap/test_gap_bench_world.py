@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sparc_quad.effects import Effect, PlantEffects
 from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.plant import PlantConfig
-from sparc_quad.sim.plant_effects import Effect, PlantEffects
 from spine_module import params as P
 
 J = list(P.ACTUATED_JOINTS)

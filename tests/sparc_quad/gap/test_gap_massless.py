@@ -9,11 +9,11 @@ import logging
 import numpy as np
 import pytest
 
+from sparc_quad.effects import PlantEffects
 from sparc_quad.gap.errors import NumericalError
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.synth import synth
 from sparc_quad.gap.workflow import run
-from sparc_quad.sim.plant_effects import PlantEffects
 from tests.sparc_quad.gap.test_gap_workflow import CHAIN
 
 FLANGE = CHAIN.replace("</robot>", """  <joint name="flange" type="revolute">

@@ -6,19 +6,18 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from sparc_quad.effects import Effect, PlantEffects, PlantEffectsError, names
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.synth import SPINE_URDF
-from sparc_quad.sim.plant_effects import EFFECT_NAMES, Effect, PlantEffects, PlantEffectsError
 
 J = ["q2", "q3", "q4"]
 
 
 def test_names():
-    assert EFFECT_NAMES == ("coulomb_friction", "viscous_friction", "stribeck_friction", "rotor_inertia",
-                            "torque_gain", "torque_offset", "time_delay", "payload_mass", "encoder_offset",
-                            "torque_saturation", "torque_deadband", "asymmetric_coulomb",
-                            "coupled_rotor_inertia", "coupled_coulomb_friction", "coupled_viscous_friction",
-                            "link_inertia")
+    assert names() == ("coulomb_friction", "viscous_friction", "stribeck_friction", "rotor_inertia",
+                       "torque_gain", "torque_offset", "time_delay", "link_inertia", "payload_mass",
+                       "encoder_offset", "torque_saturation", "torque_deadband", "asymmetric_coulomb",
+                       "coupled_rotor_inertia", "coupled_coulomb_friction", "coupled_viscous_friction")
 
 
 def test_asymmetric_and_coupled_friction():

@@ -14,10 +14,10 @@ import pinocchio as pin
 import pytest
 
 from sparc_quad.cli import main as cli_main
+from sparc_quad.effects import Effect, PlantEffects
 from sparc_quad.gap import synth_arm as sa
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import load_trial
-from sparc_quad.sim.plant_effects import Effect, PlantEffects
 
 
 def noise_floor_nm(truth: dict) -> np.ndarray:

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from sparc_quad.cli import main
+from sparc_quad.effects import PlantEffects
 from sparc_quad.gap.synth import synth
 from sparc_quad.gap.workflow import run
-from sparc_quad.sim.plant_effects import PlantEffects
 from tests.gap_helpers import check_named, run_case
 
 PAIR = ["coulomb_friction:joint=q2,tau_c_nm=0.2", "torque_gain:joint=q3,gain=0.9"]
