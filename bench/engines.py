@@ -9,7 +9,9 @@ runs `--repeat` times, interleaved (a burst of load hits both alike); each figur
 - loop: simulated s / CPU s (time.process_time) of `run_bound`, world construction and metrics included;
 - engine step alone: simulated s / wall s inside mj_step or stepSimulation during the same bound
   (`world.physics_wall_s`, perf_counter: only the engine call, not the state read after it);
-- physics share: that engine-step wall time / the loop's wall time (same clock, same run);
+- physics share: that engine-step wall time / the loop's wall time (same clock, same run; as
+  bench/cosim.py). The thread's CPU clock (time.thread_time) around each ~20 us step was tried and is not
+  usable on this machine: under load its sum over a bound exceeded the whole process's CPU time.
 - phases: one profiled run per engine (run_bound's per-phase perf_counter accumulators; `physics` there
   is world.step: torques in, engine step, state read).
 
@@ -105,10 +107,10 @@ def main() -> int:
     args.json.write_text(json.dumps(result, indent=2) + "\n")
     for e in engines:
         r = result[e]
-        phases = ", ".join(f"{k} {v:.0f}" for k, v in r["phase_us_per_step"].items())
+        phases = ", ".join(f"{k} {v:.2f}" for k, v in r["phase_share"].items())
         print(f"{e:9s} loop {r['loop_sim_s_per_cpu_s']:6.2f} sim s/CPU s, engine step alone "
               f"{r['engine_sim_s_per_s']:6.1f} sim s/s, physics share {r['physics_share']:.2f}; "
-              f"fell {r['fell']} ({r['fall_time_s']}), {r['speed_m_s']} m/s; us/step: {phases}")
+              f"fell {r['fell']} ({r['fall_time_s']}), {r['speed_m_s']} m/s; loop shares (wall): {phases}")
     for e, why in skipped.items():
         print(f"{e:9s} skipped: {why}")
     if "goal" in result:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +21,6 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
 from sparc_quad.experiments import rig
-from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
 from spine_module.model import SpineModel
 
@@ -29,7 +28,7 @@ NOISE_FLOOR_FRACTION = 0.05  # amplitudes below 5 % of the release are not read 
 
 
 @dataclass(frozen=True)
-class DynamicConfig:
+class DynamicConfig(rig.BenchConfig):
     """k_values N/m, b_values N*s/m (d_x), displacement_m of the release, duration_s per trial,
     trials per case, release_jitter_m (1 sigma), the other axes' gains (N/m, N*m/rad, N*s/m, N*m*s/rad)."""
 
@@ -39,13 +38,9 @@ class DynamicConfig:
     duration_s: float = 1.5
     trials: int = 10
     release_jitter_m: float = 0.0005
-    k_z: float = float(P.K_DEFAULT[1])
-    k_theta: float = float(P.K_DEFAULT[2])
     d_z: float = float(P.D_DEFAULT[1])
     d_theta: float = float(P.D_DEFAULT[2])
     sample_every: int = 2
-    seed: int = 0
-    plant: PlantConfig = field(default_factory=PlantConfig)
 
 
 @dataclass

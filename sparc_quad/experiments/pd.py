@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,22 +19,19 @@ import numpy as np
 from sparc_quad.experiments import rig
 from sparc_quad.experiments.stats import ols
 from sparc_quad.sim.bench_world import BenchWorld
-from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
 from spine_module.model import SpineModel
 
 
 @dataclass(frozen=True)
-class PDConfig:
+class PDConfig(rig.BenchConfig):
     """k_values N/m; displacements_m of the hand; trials per k; hold_s and read_s per displacement (s);
     settle_s before the ruler is zeroed; start_jitter_rad (1 sigma joint offset of each trial's start)."""
 
     k_values: tuple[float, ...] = P.BENCH_PD_K_X_N_M
     displacements_m: tuple[float, ...] = (0.005, 0.010, 0.015, 0.020, 0.025, 0.030)
     trials: int = 5
-    k_z: float = float(P.K_DEFAULT[1])
-    k_theta: float = float(P.K_DEFAULT[2])
-    d: tuple[float, float, float] = (P.BENCH_QUASI_STATIC_D_X_N_S_M, *(float(v) for v in P.D_DEFAULT[1:]))
+    d: tuple[float, float, float] = rig.QUASI_STATIC_D
     hand_k: float = 5000.0
     hand_d: float = 50.0
     ramp_s: float = 0.3
@@ -43,8 +40,6 @@ class PDConfig:
     settle_s: float = 0.5
     start_jitter_rad: float = 0.02
     controllers: tuple[str, ...] = ("pd", "impedance")
-    seed: int = 0
-    plant: PlantConfig = field(default_factory=PlantConfig)
 
 
 @dataclass

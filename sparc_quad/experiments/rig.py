@@ -7,7 +7,7 @@ side's loop (`RobotSide`) with the bench world as plant and the controller in pl
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -21,7 +21,22 @@ from spine_module import params as P
 from spine_module.control import ImpedanceController, StribeckFriction, TaskController, TaskPDController
 from spine_module.model import SpineModel
 
-__all__ = ["ForceLaw", "TrialLog", "make_controller", "run"]
+__all__ = ["QUASI_STATIC_D", "BenchConfig", "ForceLaw", "TrialLog", "make_controller", "run"]
+
+# task damping of the quasi-static experiments (push-pull, PD): d_x N*s/m, then the defaults' d_z, d_theta
+QUASI_STATIC_D: tuple[float, float, float] = (P.BENCH_QUASI_STATIC_D_X_N_S_M,
+                                              *(float(v) for v in P.D_DEFAULT[1:]))
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """What every bench experiment shares: the stiffness of the axes it does not study (k_z N/m, k_theta
+    N*m/rad), the seed of its trials and the plant (the simulated truth the controller does not know)."""
+
+    k_z: float = float(P.K_DEFAULT[1])
+    k_theta: float = float(P.K_DEFAULT[2])
+    seed: int = 0
+    plant: PlantConfig = field(default_factory=PlantConfig)
 
 
 @dataclass

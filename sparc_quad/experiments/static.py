@@ -10,7 +10,7 @@ from __future__ import annotations
 import csv
 import json
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +18,6 @@ import numpy as np
 from sparc_quad.experiments import rig
 from sparc_quad.experiments.stats import chunk_slopes, ols
 from sparc_quad.sim.forces import push_pull
-from sparc_quad.sim.plant import PlantConfig
 from spine_module import params as P
 from spine_module.model import SpineModel
 
@@ -33,23 +32,19 @@ PAPER_TABLE_IV = {
 
 
 @dataclass(frozen=True)
-class StaticConfig:
+class StaticConfig(rig.BenchConfig):
     """k_values N/m; k_z N/m; k_theta N*m/rad; d = (d_x N*s/m, d_z N*s/m, d_theta N*m*s/rad);
     amplitude_m: peak displacement the push aims for; period_s of one push-pull; cycles; one (x, F)
     pair every sample_every control steps."""
 
     k_values: tuple[float, ...] = P.BENCH_STATIC_K_X_N_M
-    k_z: float = float(P.K_DEFAULT[1])
-    k_theta: float = float(P.K_DEFAULT[2])
-    d: tuple[float, float, float] = (P.BENCH_QUASI_STATIC_D_X_N_S_M, *(float(v) for v in P.D_DEFAULT[1:]))
+    d: tuple[float, float, float] = rig.QUASI_STATIC_D
     amplitude_m: float = 0.025
     period_s: float = 8.0
     cycles: int = 2
     sample_every: int = 10
     n_chunks: int = 8
     controller: str = "impedance"
-    seed: int = 0
-    plant: PlantConfig = field(default_factory=PlantConfig)
 
 
 @dataclass

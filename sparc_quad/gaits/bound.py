@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
+from sparc_quad.gaits.bound_kernel import leg_fk
 from spine_module import params as P
 
 
@@ -88,17 +89,6 @@ class _Lowpass:
     def __call__(self, x: float) -> float:
         self.y += self.a * (x - self.y)
         return self.y
-
-
-def leg_fk(l1: float, l2: float, h: float, k: float, dh: float, dk: float):
-    """Planar foot position and velocity relative to the hip in the body frame (x fwd, z up), Jacobian."""
-    s1, c1 = math.sin(h), math.cos(h)
-    s12, c12 = math.sin(h + k), math.cos(h + k)
-    x = -l1 * s1 - l2 * s12
-    z = -l1 * c1 - l2 * c12
-    j11, j12 = -l1 * c1 - l2 * c12, -l2 * c12
-    j21, j22 = l1 * s1 + l2 * s12, l2 * s12
-    return x, z, j11 * dh + j12 * dk, j21 * dh + j22 * dk, (j11, j12, j21, j22)
 
 
 class BoundController:
@@ -241,8 +231,8 @@ class BoundController:
                 st = w.leg_state(leg)
                 meta = self.legs[leg]
                 l1, l2 = meta["thigh_m"], meta["shank_m"]
-                fx_b, fz_b, fvx_b, fvz_b, jac = leg_fk(l1, l2, st.hfe, st.kfe, st.dhfe, st.dkfe)
-                j11, j12, j21, j22 = jac
+                fx_b, fz_b, fvx_b, fvz_b, j11, j12, j21, j22 = leg_fk(l1, l2, st.hfe, st.kfe, st.dhfe,
+                                                                      st.dkfe)
                 side = 1.0 if leg[1] == "L" else -1.0
                 tau_haa = -p.abduction_kp * st.haa - p.abduction_kd * st.dhaa
                 if stance:

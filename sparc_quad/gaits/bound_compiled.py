@@ -7,8 +7,11 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from numba import njit
+from numba.extending import register_jitable
 
 from sparc_quad.gaits import bound_kernel
+
+register_jitable(bound_kernel.leg_fk)  # the step calls it: compiled code may call it, Python still can
 
 # C-contiguous float64 vectors: prm, st, inp, out
 SIGNATURE = "void(float64[::1], float64[::1], float64[::1], float64[::1])"

@@ -48,6 +48,19 @@ STATE_SIZE = S_LIFTOFF + 3 * 4
 I_JQ = 16  # then nj joint angles, then nj joint rates
 
 
+def leg_fk(l1: float, l2: float, h: float, k: float, dh: float, dk: float):
+    """Planar foot position and velocity relative to the hip in the body frame (x fwd, z up) and the
+    Jacobian: (x, z, vx, vz, j11, j12, j21, j22). Shared by the reference controller and this kernel
+    (`gaits.bound_compiled` makes it callable from compiled code)."""
+    s1, c1 = math.sin(h), math.cos(h)
+    s12, c12 = math.sin(h + k), math.cos(h + k)
+    x = -l1 * s1 - l2 * s12
+    z = -l1 * c1 - l2 * c12
+    j11, j12 = -l1 * c1 - l2 * c12, -l2 * c12
+    j21, j22 = l1 * s1 + l2 * s12, l2 * s12
+    return x, z, j11 * dh + j12 * dk, j21 * dh + j22 * dk, j11, j12, j21, j22
+
+
 def bound_step(prm: np.ndarray, st: np.ndarray, inp: np.ndarray, out: np.ndarray) -> None:
     """One step of `BoundController.step`: updates `st` and writes the 12 leg torques into `out`."""
     g = prm[P_G]
@@ -156,15 +169,7 @@ def bound_step(prm: np.ndarray, st: np.ndarray, inp: np.ndarray, out: np.ndarray
             i_haa, i_hfe, i_kfe = int(prm[o + L_HAA]), int(prm[o + L_HFE]), int(prm[o + L_KFE])
             haa, h, k = inp[I_JQ + i_haa], inp[I_JQ + i_hfe], inp[I_JQ + i_kfe]
             dhaa, dh, dk = inp[I_JQ + nj + i_haa], inp[I_JQ + nj + i_hfe], inp[I_JQ + nj + i_kfe]
-            # leg_fk
-            s1, c1 = math.sin(h), math.cos(h)
-            s12, c12 = math.sin(h + k), math.cos(h + k)
-            fx_b = -l1 * s1 - l2 * s12
-            fz_b = -l1 * c1 - l2 * c12
-            j11, j12 = -l1 * c1 - l2 * c12, -l2 * c12
-            j21, j22 = l1 * s1 + l2 * s12, l2 * s12
-            fvx_b = j11 * dh + j12 * dk
-            fvz_b = j21 * dh + j22 * dk
+            fx_b, fz_b, fvx_b, fvz_b, j11, j12, j21, j22 = leg_fk(l1, l2, h, k, dh, dk)
             tau_haa = -prm[P_AB_KP] * haa - prm[P_AB_KD] * dhaa
             lo_slot = S_LIFTOFF + 3 * leg
             if stance:

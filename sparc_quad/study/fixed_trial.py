@@ -28,7 +28,7 @@ _COMMON = {"gait", "spine", "duration", "seed", "slope", "latency_steps", "kx", 
            "dz", "dth", "dtheta", "frequency", "step_height", "settle", "friction_comp", "host",
            "engine"}
 _RAIBERT = {"speed", "duty", "stride", "body_kp", "body_kd", "phase_offset", "raibert_gain",
-            "popsize", "iterations", "opt_duration", "opt_seed", "tuned"}
+            "popsize", "iterations", "opt_duration", "opt_seed", "opt_restarts", "opt_trial_seeds", "tuned"}
 _SINE = {"step_length", "adapt_frequency", "spine_rate_hz", "schedule", "hip_depth", "direction", "speed",
          "variant"}
 

@@ -6,14 +6,22 @@ the stance attitude servo's gains (`body_kp`, `body_kd`, which push against spin
 CoT_pos, with a penalty when the trial falls or misses the target speed by more than 0.03 m/s. Stride
 length is emergent: the speed servo holds the target, so stride = speed / frequency.
 
-Budget: `popsize` x `iterations` evaluation trials of `opt_duration` s (seed `opt_seed`), then the
-reported trial at the config's own duration and seed with the best gait. Deterministic: CMA-ES is seeded,
+Converged, as a referee would check: every evaluation lasts >= 6 s so its metric window (the second half)
+lies after the speed ramp, and the objective is the judged metric (CoT_pos) itself; CMA-ES runs from
+`opt_restarts` optimiser seeds, each candidate judged over `opt_trial_seeds` perturbation seeds (1..n,
+not the reported trial's seed); the rigid spines get the same search as every other cell. Budget:
+`opt_restarts` x `popsize` x `iterations` candidates, each `opt_trial_seeds` trials of `opt_duration` s.
+The convergence record (`opt_convergence`, best objective after each evaluation, and
+`opt_objective_at_half_budget`) says whether the budget was enough: the best objective should move less
+at the second half than the CI of the reported CoT. Then the reported trial at the config's own duration
+and seed with the best gait. Deterministic: CMA-ES is seeded,
 so the same cell gives the same gait in any process; `optimise_cell(config)` is what a study caches (by
 `cell_key(config)`), and a config carrying `tuned` (the dict it returns) skips the search.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 from functools import lru_cache
@@ -35,7 +43,9 @@ SEARCH = (
 SPEED_TOLERANCE_M_S = 0.03
 FALL_PENALTY = 10.0
 SPEED_PENALTY_PER_M_S = 50.0
-OPT_KEYS = ("popsize", "iterations", "opt_duration", "opt_seed", "tuned")
+OBJECTIVE = "cot_pos_total"  # the metric the study judges
+MIN_EVAL_S = 6.0  # an evaluation is judged after the start-up ramp: window in its second half at least
+OPT_KEYS = ("popsize", "iterations", "opt_duration", "opt_seed", "opt_restarts", "opt_trial_seeds", "tuned")
 _CELL_SKIP = ("seed", "duration", "tuned")
 
 
@@ -50,8 +60,9 @@ def _decode(u: np.ndarray) -> dict:
 
 
 def objective(metrics: dict, target_speed: float, duration: float) -> float:
-    """CoT_pos, plus penalties: a fall (more the earlier), a mean speed off target by > 0.03 m/s."""
-    cot = metrics.get("cot_pos_total", float("nan"))
+    """The judged metric (OBJECTIVE), plus penalties: a fall (more the earlier), a mean speed off target by
+    > 0.03 m/s."""
+    cot = metrics.get(OBJECTIVE, float("nan"))
     f = cot if isinstance(cot, float) and math.isfinite(cot) and cot > 0 else FALL_PENALTY
     if metrics.get("fell"):
         t = metrics.get("fall_time_s") or 0.0
@@ -77,37 +88,54 @@ def optimise_cell(config: dict) -> dict:
 
 @lru_cache(maxsize=32)
 def _optimise(key: tuple) -> tuple:
+    """CMA-ES from `opt_restarts` optimiser seeds, each candidate judged by its mean objective over
+    `opt_trial_seeds` perturbation seeds (1..n); the best over all restarts, and the best-so-far objective
+    after every evaluation (the convergence record)."""
     import cma
 
     config = dict(key)
     popsize = int(config.get("popsize", 6))
     iterations = int(config.get("iterations", 5))
-    if popsize < 2 or iterations < 1:
-        raise ValueError(f"raibert-opt needs popsize >= 2 and iterations >= 1, got {popsize}, {iterations}")
-    duration = float(config.get("opt_duration", 4.0))
+    restarts = int(config.get("opt_restarts", 2))
+    trial_seeds = int(config.get("opt_trial_seeds", 2))
+    if popsize < 2 or iterations < 1 or restarts < 1 or trial_seeds < 1:
+        raise ValueError(f"raibert-opt needs popsize >= 2, iterations, opt_restarts, opt_trial_seeds >= 1, "
+                         f"got {popsize}, {iterations}, {restarts}, {trial_seeds}")
+    duration = float(config.get("opt_duration", MIN_EVAL_S))
+    if duration < MIN_EVAL_S:
+        raise ValueError(f"opt_duration must be >= {MIN_EVAL_S:g} s (judged after the start-up ramp), got "
+                         f"{duration:g}")
     seed = int(config.get("opt_seed", 0))
     base = _base(config)
     target = float(base.get("speed", 0.6))
-    es = cma.CMAEvolutionStrategy(
-        [0.5] * len(SEARCH), 0.25,
-        {"popsize": popsize, "maxiter": iterations, "bounds": [0.0, 1.0], "seed": 13, "verbose": -9},
-    )
-    best_f, best_x, evals = math.inf, None, 0
+    best_f, best_x, curve = math.inf, None, []
+    window_start = math.nan
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # short evaluation windows are expected
-        while not es.stop():
-            xs = es.ask()
-            fs = []
-            for x in xs:
-                m = run_trial({**base, **_decode(np.asarray(x)), "duration": duration, "seed": seed})
-                f = objective(m, target, duration)
-                evals += 1
-                fs.append(f)
-                if f < best_f:
-                    best_f, best_x = f, np.asarray(x)
-            es.tell(xs, fs)
+        for r in range(restarts):
+            es = cma.CMAEvolutionStrategy(
+                [0.5] * len(SEARCH), 0.25,
+                {"popsize": popsize, "maxiter": iterations, "bounds": [0.0, 1.0], "seed": 13 + seed + 7 * r,
+                 "verbose": -9},
+            )
+            while not es.stop():
+                xs = es.ask()
+                fs = []
+                for x in xs:
+                    runs = [run_trial({**base, **_decode(np.asarray(x)), "duration": duration, "seed": s})
+                            for s in range(1, trial_seeds + 1)]
+                    window_start = float(runs[0].get("window_s_0", math.nan))
+                    f = float(np.mean([objective(m, target, duration) for m in runs]))
+                    fs.append(f)
+                    if f < best_f:
+                        best_f, best_x = f, np.asarray(x)
+                    curve.append(best_f)
+                es.tell(xs, fs)
     tuned = _decode(best_x)
-    return tuple(sorted({**tuned, "_objective": best_f, "_evaluations": evals}.items()))
+    half = curve[len(curve) // 2 - 1] if len(curve) >= 2 else best_f
+    stats = {"_objective": best_f, "_evaluations": len(curve), "_objective_at_half_budget": half,
+             "_window_start_s": window_start, "_convergence": tuple(curve)}
+    return tuple(sorted({**tuned, **stats}.items()))
 
 
 def run_optimised_trial(config: dict) -> dict:
@@ -125,5 +153,8 @@ def run_optimised_trial(config: dict) -> dict:
     m = run_trial({**base, **params})
     m["gait"] = "raibert-opt"
     for k, v in tuned.items():
-        m[f"opt{k}" if k.startswith("_") else f"opt_{k}"] = float(v)
+        if k == "_convergence":  # best objective after each evaluation, one JSON list
+            m["opt_convergence"] = json.dumps([round(float(x), 6) for x in v])
+        else:
+            m[f"opt{k}" if k.startswith("_") else f"opt_{k}"] = float(v)
     return m

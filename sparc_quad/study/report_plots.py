@@ -277,56 +277,81 @@ def plot_frequency(panel: dict, cells: list, fn: dict, path: Path) -> Path | Non
                 alpha=0.7,
                 label=f"{spine}: gait frequency per cell",
             )
-    ax.set_xlabel("k_x (N/m)")
-    ax.set_ylabel("frequency (Hz)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    ax.set_title(f"{panel['panel']}: per-cell gait frequency against f_n(k)", fontsize=9)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(
+        fig,
+        ax,
+        path,
+        "k_x (N/m)",
+        "frequency (Hz)",
+        f"{panel['panel']}: per-cell gait frequency against f_n(k)",
+    )
     return path
 
 
-def plot_cost_vs_speed(panel: dict, metric: str, cells: list, path: Path) -> Path | None:
-    """Per-seed cost against per-seed speed for every cell of a panel, one colour per spine: where speed
-    is emergent (sine gait) cost is compared at equal speed here."""
+def plot_cost_vs_speed(panels: list[dict], metric: str, cells: list, path: Path) -> Path | None:
+    """Each cell's cost against its mean speed over a family of panels (gait A: one per step length L),
+    one colour per spine, one marker per panel: where speed is emergent, cost is compared at equal speed
+    here (and the claims compare on-speed cells of any L)."""
     plt = _plt()
-    mine = _mine(panel, metric, cells)
-    speed = {(c.spine, c.k, c.d): c for c in _mine(panel, "cot_pos_total", cells)}
+    names = [p["panel"] for p in panels]
+    mine = [c for c in cells if c.panel in names and c.metric == metric and c.est is not None]
     if not mine:
         return None
-    fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(7.5, 4.4), constrained_layout=True)
     colours = {"impedance": "tab:blue", "passive": "tab:green", **BASE_COLOURS}
+    markers = dict(zip(names, "osD^v<>p*h", strict=False))
     seen: set[str] = set()
     for c in mine:
-        sp = speed.get((c.spine, c.k, c.d))
-        v = sp.extras.get("speed_m_s") if sp else None
-        if c.est is None or v is None:
+        v = c.extras.get("speed_m_s")
+        if v is None:
             continue
         ax.plot(
             v,
             c.est.value,
-            "o" if c.spine in colours else "^",
+            markers.get(c.panel, "o"),
             color=colours.get(c.spine, "k"),
             mfc="none" if c.off_speed else None,
+            ms=8 if c.spine in BASE_COLOURS else 5,
             label=None if c.spine in seen else c.spine,
         )
         seen.add(c.spine)
-    t = panel.get("target_speed_m_s")
+    t = panels[0].get("target_speed_m_s")
     if t is not None:
         ax.axvspan(t - 0.05, t + 0.05, color="0.9", zorder=0, label="target +- 0.05 m/s")
-    ax.set_xlabel("mean speed (m/s)")
-    ax.set_ylabel(label(metric))
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    ax.set_title(f"{panel['panel']}: cost against speed (one point per cell; hollow: off-speed)", fontsize=9)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    key = ", ".join(f"{m} {n}" for n, m in markers.items())
+    _finish(
+        fig,
+        ax,
+        path,
+        "mean speed (m/s)",
+        label(metric),
+        f"cost against speed, one point per cell (hollow: off-speed); markers: {key}",
+    )
     return path
 
 
+def _finish(fig, ax, path: Path, xlabel: str, ylabel: str, title: str) -> None:
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_title(title, fontsize=8)
+    fig.savefig(path, dpi=110)
+    _plt().close(fig)
+
+
+def _families(panels: list[dict]) -> dict[str, list[dict]]:
+    """Panels that differ only in the gait's step length, by a file-name stem."""
+    out: dict[tuple, list[dict]] = {}
+    for p in panels:
+        out.setdefault(
+            tuple(sorted((k, repr(v)) for k, v in p["config"].items() if k != "step_length")), []
+        ).append(p)
+    return {fam[0]["panel"].split("_step_length")[0]: fam for fam in out.values()}
+
+
 def write_plots(res: dict, out: Path, fn: dict, plotted: tuple[str, ...]) -> list[Path]:
-    """Every plot of every panel for the metrics in `plotted`."""
+    """Every plot of every panel for the metrics in `plotted`, and cost against speed per panel family."""
     paths: list[Path] = []
     for panel in res["panels"]:
         name = panel["panel"]
@@ -334,11 +359,15 @@ def write_plots(res: dict, out: Path, fn: dict, plotted: tuple[str, ...]) -> lis
             for p in (
                 plot_heatmap(panel, m, res["cells"], out / f"heatmap_{name}_{m}.png"),
                 plot_vs_k(panel, m, res["cells"], fn, out / f"cot_vs_k_{name}_{m}.png"),
-                plot_cost_vs_speed(panel, m, res["cells"], out / f"cot_vs_speed_{name}_{m}.png"),
             ):
                 if p:
                     paths.append(p)
         p = plot_frequency(panel, res["cells"], fn, out / f"frequency_vs_fn_{name}.png")
         if p:
             paths.append(p)
+    for stem, fam in _families(res["panels"]).items():
+        for m in [m for m in res["metrics"] if m in plotted]:
+            p = plot_cost_vs_speed(fam, m, res["cells"], out / f"cot_vs_speed_{stem}_{m}.png")
+            if p:
+                paths.append(p)
     return paths

@@ -40,7 +40,8 @@ NONNEG_KEYS = (
     "imu_noise",
 )
 SIGNED_KEYS = ("direction", "phase_offset", "imu_bias")
-INT_KEYS = ("popsize", "iterations", "opt_seed", "imu_delay", "latency_steps")
+INT_KEYS = ("popsize", "iterations", "opt_seed", "opt_restarts", "opt_trial_seeds", "imu_delay",
+            "latency_steps")
 NUMERIC_KEYS = NONNEG_KEYS + SIGNED_KEYS + INT_KEYS
 BOOL_KEYS = ("friction_comp", "adapt_frequency", "schedule")
 STR_KEYS = ("host", "engine", "variant")

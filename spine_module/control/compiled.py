@@ -11,8 +11,11 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from numba import njit
+from numba.extending import register_jitable
 
 from spine_module.control import kernel
+
+register_jitable(kernel.inertia_apply)  # the step calls it: compiled code may call it, Python still can
 
 # one signature: C-contiguous float64 vectors; anything else raises TypeError and the caller falls back
 SIGNATURE = "int64(float64[::1], float64[::1], float64[::1], float64, float64[::1], boolean[::1])"

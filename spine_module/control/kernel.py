@@ -47,6 +47,23 @@ SCRATCH_PER_JOINT = 40
 OK, NOT_FINITE, BAD_SHAPE = 1, 0, -1
 
 
+
+def inertia_apply(prm: np.ndarray, o: int, mx: float, my: float, mz: float, wx: float, wy: float,
+                  wz: float) -> tuple[float, float, float, float, float, float]:
+    """A body's spatial inertia (prm[o]: mass, then the COM c (3), then the rotational inertia about the
+    COM, row-major (9)) times the motion (m_lin, m_ang): lin = mass (m_lin - c x m_ang), ang = Ic m_ang +
+    c x lin. `control.compiled` makes it callable from the compiled step."""
+    mass = prm[o]
+    kx, ky, kz = prm[o + 1], prm[o + 2], prm[o + 3]
+    la = mass * (mx - (ky * wz - kz * wy))
+    lb = mass * (my - (kz * wx - kx * wz))
+    lc = mass * (mz - (kx * wy - ky * wx))
+    na = prm[o + 4] * wx + prm[o + 5] * wy + prm[o + 6] * wz + ky * lc - kz * lb
+    nb = prm[o + 7] * wx + prm[o + 8] * wy + prm[o + 9] * wz + kz * la - kx * lc
+    nc = prm[o + 10] * wx + prm[o + 11] * wy + prm[o + 12] * wz + kx * lb - ky * la
+    return la, lb, lc, na, nb, nc
+
+
 def _axis(joint: Any) -> tuple[float, float, float]:
     """Rotation axis of a revolute joint model; anything else is not supported by the kernel."""
     name = joint.shortname()
@@ -314,21 +331,9 @@ def spine_step(prm: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq1: float, res:
             bbx = r00 * pbx + r10 * pby + r20 * pbz + ux * ddqi + wy * sw - wz * sy
             bby = r01 * pbx + r11 * pby + r21 * pbz + uy * ddqi + wz * sx - wx * sw
             bbz = r02 * pbx + r12 * pby + r22 * pbz + uz * ddqi + wx * sy - wy * sx
-            # f = I a + v x* (I v); I m: lin = mass (m_lin - c x m_ang), ang = Ic m_ang + c x lin
-            mass = prm[o + 15]
-            kx, ky, kz = prm[o + 16], prm[o + 17], prm[o + 18]
-            la = mass * (aax - (ky * bbz - kz * bby))
-            lb = mass * (aay - (kz * bbx - kx * bbz))
-            lc = mass * (aaz - (kx * bby - ky * bbx))
-            na = prm[o + 19] * bbx + prm[o + 20] * bby + prm[o + 21] * bbz + ky * lc - kz * lb
-            nb = prm[o + 22] * bbx + prm[o + 23] * bby + prm[o + 24] * bbz + kz * la - kx * lc
-            nc = prm[o + 25] * bbx + prm[o + 26] * bby + prm[o + 27] * bbz + kx * lb - ky * la
-            hl0 = mass * (vx - (ky * wz - kz * wy))
-            hl1 = mass * (vy - (kz * wx - kx * wz))
-            hl2 = mass * (vz - (kx * wy - ky * wx))
-            ha0 = prm[o + 19] * wx + prm[o + 20] * wy + prm[o + 21] * wz + ky * hl2 - kz * hl1
-            ha1 = prm[o + 22] * wx + prm[o + 23] * wy + prm[o + 24] * wz + kz * hl0 - kx * hl2
-            ha2 = prm[o + 25] * wx + prm[o + 26] * wy + prm[o + 27] * wz + kx * hl1 - ky * hl0
+            # f = I a + v x* (I v)
+            la, lb, lc, na, nb, nc = inertia_apply(prm, o + 15, aax, aay, aaz, bbx, bby, bbz)
+            hl0, hl1, hl2, ha0, ha1, ha2 = inertia_apply(prm, o + 15, vx, vy, vz, wx, wy, wz)
             # v x* h = (w x h_lin, w x h_ang + v x h_lin)
             res[d + 9] = la + wy * hl2 - wz * hl1
             res[d + 10] = lb + wz * hl0 - wx * hl2

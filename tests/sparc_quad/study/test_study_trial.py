@@ -134,7 +134,7 @@ def test_raibert_opt_tunes_then_runs_and_a_tuned_gait_skips_the_search():
     from sparc_quad.study.raibert_opt import SEARCH, optimise_cell
 
     cfg = {"gait": "raibert-opt", "spine": "rigid", "duration": 1.0, "popsize": 2, "iterations": 1,
-           "opt_duration": 1.0, "settle": 0.2}
+           "opt_duration": 6.0, "opt_restarts": 1, "opt_trial_seeds": 1, "settle": 0.2, "speed": 0.3}
     m = run_trial(cfg)
     assert m["gait"] == "raibert-opt" and m["opt_evaluations"] == 2.0
     for key, lo, hi in SEARCH:
