@@ -165,7 +165,7 @@ SENSORS = SensorParams()
 
 @dataclass(frozen=True)
 class SafetyParams:
-    """Deadlines and limits of the node's safety logic (issue: spine node)."""
+    """Deadlines and limits of the node's safety logic."""
 
     torso_deadline_s: float = 0.020
     feedback_deadline_s: float = 0.005
@@ -197,10 +197,10 @@ class SpineParams:
 DEFAULT_SPINE = SpineParams()
 
 
-# --- Spine variants of the stiffness study (issue 13) -----------------------------------------------
+# --- Spine variants of the stiffness study ----------------------------------------------------------
 # "rigid-impedance": the impedance controller made stiff. k_theta = 1e4 N/m x (0.1 m)^2 is the same
 # stiffness felt at a 0.1 m lever; damping near 0.2 of critical for the ~0.4 kg / ~3e-3 kg*m^2 the spine
-# moves (INTERPRETATION: the issue names k = 1e4 only).
+# moves (INTERPRETATION: the study's specification names k = 1e4 only).
 K_RIGID_IMPEDANCE = np.array([1.0e4, 1.0e4, 100.0])  # N/m, N/m, N*m/rad
 D_RIGID_IMPEDANCE = np.array([25.0, 25.0, 0.25])  # N*s/m, N*s/m, N*m*s/rad
 

@@ -40,7 +40,7 @@ COLUMNS = (
     "leg_power_w",
     "spine_power_w",
     "leg_tau_max",
-    # appended for the stiffness study (issue 13): every joint's applied torque and rate, the gait clock
+    # appended for the stiffness study: every joint's applied torque and rate, the gait clock
     *(f"tau_{j}" for j in LEG_JOINTS),
     *(f"dq_{j}" for j in LEG_JOINTS),
     "gait_phase",  # gait clock, cycles in [0, 1): a stride starts where it wraps

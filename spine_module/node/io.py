@@ -31,7 +31,7 @@ _INCOMING = {
 }
 
 
-# A flood on one channel must not stall the loop (issue 10): each poll handles at most this many messages
+# A flood on one channel must not stall the loop: each poll handles at most this many messages
 # and spends at most POLL_BUDGET_S; what is left waits in LCM's queue for the next tick. With LCM's UDP
 # provider each subscription's own queue also holds at most QUEUE_CAPACITY messages (LCM drops the rest
 # before they reach Python); only the newest message per channel is used, the others count as dropped.

@@ -1,8 +1,8 @@
-"""Done-means of the spine-node issue: `bench-robot` and `spine-node` as separate processes talking LCM
+"""The spine node across processes: `bench-robot` and `spine-node` as separate processes talking LCM
 over UDP multicast inside a network namespace this test creates.
 
 - the static push test through that path gives the same stiffness as the in-process run (and as the
-  lead's bench rig, which calls the controller directly);
+  bench rig, which calls the controller directly);
 - lockstep over LCM reproduces the in-process trajectory to within 1e-6 rad;
 - `lcm-logger` records the session; replaying the log through the node's decoder yields the same spine
   states the robot received, every event decodes, and a corrupted or wrong-fingerprint event is rejected.

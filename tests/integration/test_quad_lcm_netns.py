@@ -1,4 +1,4 @@
-"""Done-means of the quadruped issue over LCM: the quadruped sim (`sparc-quad bound --lcm`) and the spine node
+"""The quadruped over LCM: the quadruped sim (`sparc-quad bound --lcm`) and the spine node
 (`sparc-quad spine-node --motors lcm`) as separate processes on UDP multicast inside a network namespace this
 test creates, in lockstep, against the same bound with the node in process.
 

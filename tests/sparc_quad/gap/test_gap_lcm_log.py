@@ -1,4 +1,4 @@
-"""The gap workflow reads an `lcm-logger` file of a spine-node session directly (issue 5).
+"""The gap workflow reads an `lcm-logger` file of a spine-node session directly.
 
 - A real session: `spine-node` and `bench-robot` as separate processes on UDP multicast in a network
   namespace, recorded by `lcm-logger` (the harness of

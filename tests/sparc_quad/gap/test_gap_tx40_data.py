@@ -76,7 +76,7 @@ def test_reader_maps_motors_to_joints_with_the_coupled_wrist():
 
 
 def test_published_urdf_has_a_singular_mass_matrix():
-    """As published, link_6 has zero inertia: M is singular (the workflow must cope; issue 12)."""
+    """As published, link_6 has zero inertia: M is singular (the workflow must cope)."""
     robot = Robot(URDF, im.JOINTS, {}, (0, 0, -9.81))
     M = pin.crba(robot.model, robot.model.createData(), np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6]))
     M = np.triu(M) + np.triu(M, 1).T

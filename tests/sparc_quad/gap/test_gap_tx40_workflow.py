@@ -1,4 +1,4 @@
-"""The gap workflow on the real Stäubli TX40 log (tests/data/staubli_tx40; issue 12's "done means"):
+"""The gap workflow on the real Stäubli TX40 log (tests/data/staubli_tx40), end to end:
 runs to the end with the URDF as published (its last link is massless), names friction on the main joints
 and no actuator-on-command effect (the torques are measured), the held-out inverse-dynamics residual on
 joints 1-4 is at least 75 % below the nominal model's and within 1.5x of the physically expected fit

@@ -1,4 +1,4 @@
-"""The study's trial function: spine variants, gait families, metrics, seeds (issue 13; issue 10 item 12)."""
+"""The study's trial function: spine variants, gait families, metrics, seeds."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The numba-compiled control step equals the pinocchio reference path (issue 11), input by input."""
+"""The numba-compiled control step equals the pinocchio reference path, input by input."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 10 Reliability: fuzzing every interface's decoder. A decoder returns a value or raises its own
+"""Fuzzing every interface's decoder. A decoder returns a value or raises its own
 error type naming the problem (MessageError for LCM, FrameError for CAN), never anything else; the
 emulator answers anything without raising. Short runs in the default suite, long ones slow-marked."""
 

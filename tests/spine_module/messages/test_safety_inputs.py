@@ -1,4 +1,4 @@
-"""Issue 10: bad input at every boundary ends in a clear error naming what was wrong, never a traceback.
+"""Bad input at every boundary ends in a clear error naming what was wrong, never a traceback.
 
 SPARC_SPINE_STATE with out-of-range enums (codec + spine-echo), `motors` actions without a terminal.
 """

@@ -1,4 +1,4 @@
-"""Real-time options of the node (issue 11): tick-period histogram, absolute schedule, process set-up."""
+"""Real-time options of the node: tick-period histogram, absolute schedule, process set-up."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 10 item 5: a command flood cannot stall the node's loop.
+"""A command flood cannot stall the node's loop.
 
 Thousands of spine commands queued on the node's LCM handle (memq://, one process) ahead of the motor
 feedback: every receive() and every input poll dispatches at most its bound, only the newest command is

@@ -1,4 +1,4 @@
-"""Issue 10 item 6: a short feedback gap resumes at full gain; only a real restart soft-starts again.
+"""A short feedback gap resumes at full gain; only a real restart soft-starts again.
 
 A fake clock drives `supervise` tick by tick (1 kHz) as the node does."""
 
