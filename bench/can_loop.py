@@ -17,7 +17,7 @@ hypervisor slowing this VM's CPUs), not to CAN: on this project's shared VM a 10
 ~1-2 ms slower now and then, and a loop doing ~300 us of Python per cycle loses ~2 % of its cycles.
 It also prints the bus-load model (8-byte extended frames, worst-case stuffing) for 3 motors at --rate-hz
 on a 1 Mbit/s bus, and the highest rate that keeps it under the project's 80 % limit.
-Goal (issue 11): 3 motors, 1 kHz +-1 % over 10 s.
+Goal: 3 motors, 1 kHz +-1 % over 10 s.
 
 usage: python bench/can_loop.py [--seconds 10] [--rate-hz 1000] [--emulator process|thread] [--json PATH]
 """

@@ -3,7 +3,7 @@
 Prints and writes (--json) median wall times and ratios: impedance step (eq. 3 + eq. 4), impedance
 without friction compensation, task PD step (eq. 5) on the default backend (the numba-compiled kernel
 where numba works), the same steps on the pinocchio reference path, kinematics update, and
-`pinocchio.rnea`. Goal (issue 11): impedance and PD steps at most 3x one rnea.
+`pinocchio.rnea`. Goal: impedance and PD steps at most 3x one rnea.
 Medians over repeated batches of this thread's CPU time (--clock wall for wall time) make the ratio
 robust to a shared, noisy machine.
 """

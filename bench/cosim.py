@@ -19,7 +19,7 @@ Three figures, each the best of `--repeat` runs:
 - node in process: the same bound with the spine node ticked in this process (in-process bus);
 - LCM lockstep: `sparc-quad bound --lcm` and `sparc-quad spine-node --motors lcm --clock lockstep` as two
   processes on UDP multicast inside a private network namespace (skipped where one cannot be made), pinned
-  to two CPUs; its figure is the bound's own wall time as the robot process measured it. The issue-11
+  to two CPUs; its figure is the bound's own wall time as the robot process measured it. The goal
   ratio against the in-process bound is `bench/lcm_loop.py`'s `lcm_lockstep_over_in_process`.
 """
 

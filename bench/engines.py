@@ -15,7 +15,7 @@ runs `--repeat` times, interleaved (a burst of load hits both alike); each figur
 - phases: one profiled run per engine (run_bound's per-phase perf_counter accumulators; `physics` there
   is world.step: torques in, engine step, state read).
 
-Goal (issue 18): the MuJoCo bound of the spined dog at >= 20 simulated s per CPU s with physics >= 0.5.
+Goal: the MuJoCo bound of the spined dog at >= 20 simulated s per CPU s with physics >= 0.5.
 
     python bench/engines.py --json out/bench/engines.json [--repeat 3] [--duration 10] [--host spined-dog]
 """

@@ -27,7 +27,7 @@ ROWS = 301_000
 
 
 def row_loop(path: Path) -> np.ndarray:
-    """The reader before issue 12: a Python loop over rows and fields."""
+    """The reader before the vectorised one: a Python loop over rows and fields."""
     with path.open(newline="") as fh:
         reader = csv.reader(fh)
         header = next(reader)

@@ -1,5 +1,5 @@
 """Wall and CPU time of the gap workflow on the whole real TX40 log: 45 000 samples x 6 joints at 5 kHz
-(issue 12 goal: under 2 minutes on this machine).
+(goal: under 2 minutes on this machine).
 
     python bench/gap_tx40.py --json out/bench/gap_tx40.json
 

@@ -14,7 +14,7 @@ with `unshare`, as the tests do):
 3. real time: `bench-robot --clock realtime` + `spine-node --clock realtime --rate 1000` holding the
    spine for a few seconds: achieved rates, the node's worst period jitter, ticks the robot stepped
    without a fresh command.
-4. bound (issue 11): `sparc-quad bound --lcm` + `spine-node --motors lcm --clock lockstep` against the
+4. bound: `sparc-quad bound --lcm` + `spine-node --motors lcm --clock lockstep` against the
    same bound in process (`run_bound`, default spine), same robot, same simulated seconds, best of
    `--bound-repeat` each, alternating. Headline `lcm_lockstep_over_in_process` = in-process wall / LCM
    lockstep wall (goal >= 0.5). The two processes are pinned to two different CPUs (`taskset`), as a node

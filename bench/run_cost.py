@@ -3,7 +3,7 @@
 Each run is a fresh process (what a sweep of short runs pays per trial); its CPU time (user + sys, from
 the child's rusage) is measured at two simulated durations, `--repeat` times each, and the minimum of
 each taken. The fixed cost is the intercept of the line through the two minima (CPU s at 0 s simulated),
-the slope is the CPU cost per simulated second. Goal (issue 11): fixed cost < 1 s of CPU.
+the slope is the CPU cost per simulated second. Goal: fixed cost < 1 s of CPU.
 
     python bench/run_cost.py --json out/bench/run_cost.json [--repeat 3] [--short 0.05] [--long 1.0]
 

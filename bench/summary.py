@@ -1,4 +1,4 @@
-"""Each issue-11 performance ratio beside its goal, from the JSON files `make bench` wrote.
+"""Each performance ratio beside its goal, from the JSON files `make bench` wrote.
 
 usage: python bench/summary.py [DIR]   (default out/bench; a missing file is reported as not run)
 """
