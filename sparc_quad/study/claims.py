@@ -243,7 +243,7 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
             "claim": claim,
             "verdict": "not tested",
             "finding": f"no baseline within 0.05 m/s of {ref['target_speed_m_s']:.2f} m/s ({speeds} m/s): "
-            "no matched-speed comparison",
+            f"no matched-speed comparison; unmatched, {_dominance(cs)}",
         }
     t = ref["target_speed_m_s"]
     b = min(pick, key=lambda c: abs((c.extras.get("speed_m_s") or 0) - t))
@@ -298,6 +298,23 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
         "diff_hi": d.hi,
         "finding": text,
     }
+
+
+def _dominance(cs: list) -> str:
+    """How cells compare with their own panel's baseline when speeds differ: faster and cheaper (CI)."""
+    rated = [c for c in cs if c.est is not None and c.diff_pct is not None]
+    both = sum(
+        1
+        for c in rated
+        if c.diff_pct.hi is not None
+        and c.diff_pct.hi < 0
+        and (c.extras.get("speed_m_s") or 0) > (c.extras.get("base_speed_m_s") or math.inf)
+    )
+    dearer = sum(1 for c in rated if c.diff_pct.lo is not None and c.diff_pct.lo > 0)
+    return (
+        f"{both}/{len(rated)} cells ran faster than their panel's baseline and cost less (CI below 0), "
+        f"{dearer} cost more"
+    )
 
 
 def _range_ratio(low_cells, ref_cells, low_base, ref_base, n_boot=2000, seed=0):

@@ -263,6 +263,7 @@ def analyse(trials: list[Trial], n_boot: int = 400) -> dict:
             if gains:
                 extras["other_gains"] = json.dumps(dict(gains))
             base = _baseline_for(spine, standing)
+            extras["base_speed_m_s"] = _extras(base_trials[base])["speed_m_s"] if base else None
             for m in metrics:
                 seeds = _by_seed(ts, m)
                 est = mean_over_seeds(list(seeds.values()), n_boot=n_boot)

@@ -318,14 +318,16 @@ def plot_cost_vs_speed(panels: list[dict], metric: str, cells: list, path: Path)
     t = panels[0].get("target_speed_m_s")
     if t is not None:
         ax.axvspan(t - 0.05, t + 0.05, color="0.9", zorder=0, label="target +- 0.05 m/s")
-    key = ", ".join(f"{m} {n}" for n, m in markers.items())
+    step = {p["panel"]: p["config"].get("step_length") for p in panels}
+    key = ", ".join(f"{m} L {1000 * step[n]:.0f} mm" if step[n] else f"{m} {n}" for n, m in markers.items())
     _finish(
         fig,
         ax,
         path,
         "mean speed (m/s)",
         label(metric),
-        f"cost against speed, one point per cell (hollow: off-speed); markers: {key}",
+        f"{panels[0]['panel'].split('_step_length')[0]}: cost against speed, one point per cell "
+        f"(hollow: off-speed)\nmarkers: {key}",
     )
     return path
 
