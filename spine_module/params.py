@@ -80,9 +80,33 @@ ALL_JOINTS: tuple[str, ...] = (BASE_JOINT, *ACTUATED_JOINTS)
 EE_FRAME = "end_effector"
 
 # --- Actuator: Xiaomi CyberGear (Table II and the CyberGear manual) ----------------------------------
-TORQUE_LIMIT_NM = 12.0  # peak output torque
-GEAR_RATIO = 7.75
-VELOCITY_LIMIT_RAD_S = 30.0  # operation-control velocity range of the CyberGear
+@dataclass(frozen=True)
+class CyberGearLimits:
+    """The CyberGear's hardware ranges, the one copy: the CAN protocol's uint16 scaling, the motor
+    config's checks, the LCM codec's motor ranges and the simulated sensors' LSBs all read them here.
+
+    Sources: the CyberGear micromotor instruction manual (public English translation, github
+    belovictor/cybergear-docs): section 1.3 (peak torque 12 N*m, peak current 23 A), 1.4 (7.75:1),
+    section 4 (operation control: torque +-12 N*m, velocity +-30 rad/s, kp 0..500, kd 0..5; position
+    +-4*pi in the tables, +-12.5 rad in the sample code and most drivers), and its parameter list
+    (CAN_TIMEOUT 0..100000; the unit, 20000 = 1 s, is RobStride's, see buses/cybergear/protocol.py)."""
+
+    torque_nm: float = 12.0  # peak output torque = operation-control torque range
+    velocity_rad_s: float = 30.0  # operation-control / feedback velocity range
+    position_rad: float = 12.5  # operation-control / feedback position range as the sample code scales it
+    position_table_rad: float = 4 * math.pi  # the same range as the manual's tables give it
+    kp_nm_rad: float = 500.0  # operation-control kp range
+    kd_nm_s_rad: float = 5.0  # operation-control kd range
+    current_a: float = 23.0  # peak phase current = iq_ref range
+    gear_ratio: float = 7.75  # inside the motor: its frames are output-side
+    can_timeout_ticks_per_s: int = 20_000  # CAN_TIMEOUT counts per second (50 us each)
+    can_timeout_max_ticks: int = 100_000  # the parameter list's maximum (5 s)
+
+
+CYBERGEAR = CyberGearLimits()
+TORQUE_LIMIT_NM = CYBERGEAR.torque_nm  # peak output torque
+GEAR_RATIO = CYBERGEAR.gear_ratio
+VELOCITY_LIMIT_RAD_S = CYBERGEAR.velocity_rad_s  # operation-control velocity range of the CyberGear
 # INTERPRETATION: the CyberGear's rotor inertia is not in the paper; 3e-5 kg*m^2 is an estimate for an
 # outer-rotor motor of its size. Reflected through 7.75:1 it is 1.8e-3 kg*m^2 per joint, ten times the
 # front body's own inertia about q4, so the model (pinocchio `armature`) and the plant both carry it.
@@ -152,10 +176,10 @@ BENCH_QUASI_STATIC_D_X_N_S_M = 5.0
 class SensorParams:
     """What the robot's sensors add to the truth (used by the simulated plant)."""
 
-    # CyberGear feedback frames carry uint16 over +-4*pi rad, +-30 rad/s, +-12 N*m.
-    position_lsb_rad: float = 8 * math.pi / 65535
-    velocity_lsb_rad_s: float = 60.0 / 65535
-    torque_lsb_nm: float = 24.0 / 65535
+    # CyberGear feedback frames carry uint16 over the CYBERGEAR ranges (+-12.5 rad, +-30 rad/s, +-12 N*m)
+    position_lsb_rad: float = 2 * CYBERGEAR.position_rad / 65535
+    velocity_lsb_rad_s: float = 2 * CYBERGEAR.velocity_rad_s / 65535
+    torque_lsb_nm: float = 2 * CYBERGEAR.torque_nm / 65535
     torque_noise_nm: float = 0.02  # current-based torque estimate, 1 sigma
     load_cell_noise_n: float = 0.05  # 20 kg cell + HX711 at the bench's bandwidth, 1 sigma
 

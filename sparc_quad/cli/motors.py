@@ -201,9 +201,13 @@ def _watchdog(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate:
     import can
 
     from spine_module.buses.cybergear.driver import open_bus
-    from spine_module.buses.cybergear.watchdog import StopWatchdog
+    from spine_module.buses.cybergear.watchdog import DEADLINE_MAX_S, DEADLINE_MIN_S, StopWatchdog
 
     deadline = args.deadline if args.deadline is not None else (cfg.can_timeout_s or 0.05)
+    if not DEADLINE_MIN_S <= deadline <= DEADLINE_MAX_S:
+        print(f"motors watchdog: --deadline must be in [{DEADLINE_MIN_S:g}, {DEADLINE_MAX_S:g}] s (a longer "
+              f"one never fires in time), got {deadline:g}", file=sys.stderr)
+        return 2
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: stop.set())

@@ -102,18 +102,20 @@ COMMAND_RANGES = {
     "d": [Range(0.0, D_MAX[0], "N*s/m"), Range(0.0, D_MAX[1], "N*s/m"), Range(0.0, D_MAX[2], "N*m*s/rad")],
     "tau_ff": Range(-_TAU_MAX, _TAU_MAX, "N*m"),
 }
+_CG = params.CYBERGEAR
+_POS_MAX = max(_CG.position_rad, _CG.position_table_rad)  # either scaling of the frames' position
 FEEDBACK_RANGES = {
-    "angle": Range(-4 * _PI, 4 * _PI, "rad"),
+    "angle": Range(-_POS_MAX, _POS_MAX, "rad"),
     "velocity": Range(-1.5 * _VEL_MAX, 1.5 * _VEL_MAX, "rad/s"),
     "torque": Range(-1.5 * _TAU_MAX, 1.5 * _TAU_MAX, "N*m"),
     "temperature": Range(-40.0, 200.0, "degC"),
     "load_cell": Range(-2000.0, 2000.0, "N", nan_ok=True),
 }
 MOTOR_COMMAND_RANGES = {
-    "position": Range(-4 * _PI, 4 * _PI, "rad"),
+    "position": Range(-_POS_MAX, _POS_MAX, "rad"),
     "velocity": Range(-_VEL_MAX, _VEL_MAX, "rad/s"),
-    "kp": Range(0.0, 500.0, "N*m/rad"),
-    "kd": Range(0.0, 5.0, "N*m*s/rad"),
+    "kp": Range(0.0, _CG.kp_nm_rad, "N*m/rad"),
+    "kd": Range(0.0, _CG.kd_nm_s_rad, "N*m*s/rad"),
     "torque": Range(-_TAU_MAX, _TAU_MAX, "N*m"),
 }
 

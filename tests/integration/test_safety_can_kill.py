@@ -5,7 +5,7 @@ in real time, as a user would run them:
    motor fault (it latched "left run mode" in 4 of 4 runs before the stop-frame race was fixed);
 2. SIGKILL of `spine-node --motors can` while it drives the emulated motors: with the motors' CAN timeout
    (the default motors.toml) every motor is at zero torque within its timeout, in the emulator's clock;
-3. the same kill with the CAN timeout off (`can_timeout_s = 0`): the motors keep running (the hazard);
+3. the same kill with the CAN timeout off (`can_timeout_s = 0`, `can_timeout_off = true`): the motors keep running (the hazard);
 4. ... and with `sparc-quad motors watchdog` running, the watchdog stops them.
 """
 
@@ -118,8 +118,9 @@ SCRIPT = textwrap.dedent("""
 
     def config(timeout_s):  # the packaged file with another CAN timeout
         path = os.path.join(tmp, f"motors_{timeout_s}.toml")
+        off = "\ncan_timeout_off = true" if timeout_s == 0 else ""
         open(path, "w").write(DEFAULT_CONFIG_PATH.read_text().replace("can_timeout_s = 0.05",
-                                                                      f"can_timeout_s = {timeout_s}"))
+                                                                      f"can_timeout_s = {timeout_s}{off}"))
         return path
     if "can_timeout" in phases:
         kill_run("can_timeout", config(TIMEOUT_S))

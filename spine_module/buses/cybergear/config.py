@@ -22,8 +22,13 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from spine_module.buses.cybergear.protocol import CAN_TIMEOUT_TICKS_PER_S, DEFAULT_HOST_ID, Ranges
-from spine_module.params import ACTUATED_JOINTS
+from spine_module.buses.cybergear.protocol import (
+    CAN_TIMEOUT_MAX_TICKS,
+    CAN_TIMEOUT_TICKS_PER_S,
+    DEFAULT_HOST_ID,
+    Ranges,
+)
+from spine_module.params import ACTUATED_JOINTS, CYBERGEAR, JOINT_LOWER_RAD, JOINT_UPPER_RAD
 
 DEFAULT_CONFIG_PATH = Path(__file__).with_name("motors.toml")
 
@@ -52,6 +57,8 @@ class JointConfig:
             raise ValueError(f"{self.name}: can_id must be 1..127, got {self.can_id}")
         if not (self.gear_ratio > 0 and self.torque_scale > 0):
             raise ValueError(f"{self.name}: gear_ratio and torque_scale must be > 0")
+        for f, (lo, hi, why) in JOINT_RANGES.items():
+            _check(f"{self.name}: {f}", getattr(self, f), lo, hi, why)
 
     # joint <-> motor
     def q_to_motor(self, q: float) -> float:
@@ -89,13 +96,15 @@ class CyberGearConfig:
     host_id: int = DEFAULT_HOST_ID
     torque_mode: str = "operation"  # "operation" (type 1, kp=kd=0 unless asked) or "current" (run_mode 3)
     kt_nm_per_a: float = KT_NM_PER_A
-    position_max_rad: float = 12.5
-    limit_torque_nm: float = 12.0
+    position_max_rad: float = CYBERGEAR.position_rad
+    limit_torque_nm: float = CYBERGEAR.torque_nm
     handshake_timeout_s: float = 1.0
     silent_timeout_s: float = 0.05  # a motor silent this long mid-run is a lost motor
     # the motors' own CAN watchdog (firmware CAN_TIMEOUT, 0x200C): no frame for this long -> the motor
-    # stops. Written and read back at start-up; 0 leaves it off (then run `motors watchdog`, see README)
+    # stops. Written and read back at start-up. Off only with can_timeout_s = 0 AND can_timeout_off = True
+    # (then run `motors watchdog`, see README): a value that rounds to 0 ticks is refused, not "off"
     can_timeout_s: float = 0.05
+    can_timeout_off: bool = False
     rate_hz: float = 1000.0  # for the bus-load check
     bitrate: int = 1_000_000
     joint_names: tuple[str, ...] = ACTUATED_JOINTS  # the node's joint order
@@ -130,11 +139,51 @@ class CyberGearConfig:
             v = getattr(self, f)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{f} must be a finite number > 0, got {v}")
-        if not (math.isfinite(self.can_timeout_s) and self.can_timeout_s >= 0):
-            raise ValueError(f"can_timeout_s must be a finite number >= 0 (0: off), got {self.can_timeout_s}")
+        for f, (lo, hi, why) in BUS_RANGES.items():
+            _check(f, getattr(self, f), lo, hi, why)
+        period = 1.0 / self.rate_hz
+        _check("silent_timeout_s", self.silent_timeout_s, 2 * period, SILENT_TIMEOUT_MAX_S,
+               "from two control periods (2 / rate_hz) to the longest a lost motor may go unnoticed")
+        self._check_can_timeout(period)
+        self._check_joint_ranges()
+
+    def _check_can_timeout(self, period: float) -> None:
+        v = self.can_timeout_s
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"can_timeout_s must be a finite number >= 0 (0: off), got {v}")
+        if not isinstance(self.can_timeout_off, bool):
+            raise ValueError(f"can_timeout_off must be true or false, got {self.can_timeout_off!r}")
+        if v == 0:
+            if not self.can_timeout_off:
+                raise ValueError("can_timeout_s = 0 turns the motors' own CAN watchdog off: if that is "
+                                 "meant, also set can_timeout_off = true (and run `sparc-quad motors "
+                                 "watchdog`)")
+            return
+        if self.can_timeout_off:
+            raise ValueError(f"can_timeout_off = true needs can_timeout_s = 0, got {v:g}")
+        tick_s = 1.0 / CAN_TIMEOUT_TICKS_PER_S
+        if self.can_timeout_ticks == 0:
+            raise ValueError(f"can_timeout_s = {v:g} s rounds to 0 CAN_TIMEOUT ticks of {tick_s * 1e6:g} us, "
+                             "which the firmware reads as off: give a timeout of at least two control "
+                             "periods, or 0 with can_timeout_off = true")
+        if v < 2 * period:
+            raise ValueError(f"can_timeout_s must be >= two control periods (2 / rate_hz = {2 * period:g} s; "
+                             f"shorter trips the motors between two frames), got {v:g}")
         if self.can_timeout_ticks > CAN_TIMEOUT_MAX_TICKS:
-            raise ValueError(f"can_timeout_s must be <= {CAN_TIMEOUT_MAX_TICKS / CAN_TIMEOUT_TICKS_PER_S:g} "
-                             f"s (the firmware's CAN_TIMEOUT range), got {self.can_timeout_s}")
+            raise ValueError(f"can_timeout_s must be <= {CAN_TIMEOUT_MAX_TICKS * tick_s:g} "
+                             f"s (the firmware's CAN_TIMEOUT range), got {v}")
+
+    def _check_joint_ranges(self) -> None:
+        """Each joint's range (params.JOINT_LOWER/UPPER_RAD) must map to motor positions the frames can
+        carry (+-position_max_rad): else feedback clamps and the node reads a wrong angle."""
+        pmax = self.position_max_rad
+        for j in self.joints:
+            ends = sorted(j.q_to_motor(q) for q in (JOINT_LOWER_RAD[j.name], JOINT_UPPER_RAD[j.name]))
+            if ends[0] < -pmax or ends[1] > pmax:
+                raise ValueError(
+                    f"{j.name}: its range [{JOINT_LOWER_RAD[j.name]:g}, {JOINT_UPPER_RAD[j.name]:g}] rad is "
+                    f"motor positions [{ends[0]:.4g}, {ends[1]:.4g}] rad with gear_ratio {j.gear_ratio:g} "
+                    f"and zero_offset_rad {j.zero_offset_rad:g}, outside the frames' +-{pmax:g} rad")
 
     @property
     def can_timeout_ticks(self) -> int:
@@ -153,14 +202,36 @@ class CyberGearConfig:
         return replace(self, **kw)
 
 
-CAN_TIMEOUT_MAX_TICKS = 100_000  # the manual's maximum for CAN_TIMEOUT
+def _check(name: str, v: float, lo: float, hi: float, why: str) -> None:
+    if not lo <= v <= hi:
+        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}] ({why}), got {v:g}")
 
-# key -> (kind, default); kinds: "float" (finite), "int", "str", "pos" (float or "4pi")
+
+SILENT_TIMEOUT_MAX_S = 10.0
+# [lo, hi] of each number against physics and the CyberGear (CYBERGEAR in spine_module.params), and why
+JOINT_RANGES = {
+    "gear_ratio": (0.1, 100.0, "a transmission between motor and joint; below 0.1 the joint gets at most "
+                   f"{0.1 * CYBERGEAR.torque_nm:g} N*m"),
+    "torque_scale": (0.5, 2.0, "a calibration of the motor's torque estimate, not a different motor"),
+    "zero_offset_rad": (-CYBERGEAR.position_table_rad, CYBERGEAR.position_table_rad,
+                        "a motor position the frames can carry"),
+}
+BUS_RANGES = {
+    "kt_nm_per_a": (KT_NM_PER_A / 2, 2 * KT_NM_PER_A, "the manual's torque constant within a factor of 2"),
+    "position_max_rad": (CYBERGEAR.position_rad, CYBERGEAR.position_table_rad,
+                         "the frames' position range: 12.5 (sample code) or 4pi (the manual's tables)"),
+    "limit_torque_nm": (0.01, CYBERGEAR.torque_nm, "the CyberGear's peak torque"),
+    "handshake_timeout_s": (0.01, 60.0, "the motors answer within about 250 us"),
+    "rate_hz": (1.0, 10_000.0, "a control rate the node can pace"),
+    "bitrate": (10_000, 1_000_000, "CAN 2.0 bitrates; the CyberGear talks at 1 Mbit/s"),
+}
+
+# key -> (kind, default); kinds: "float" (finite), "int", "str", "bool", "pos" (float or "4pi")
 _BUS_KEYS = {"host_id": ("int", DEFAULT_HOST_ID), "torque_mode": ("str", "operation"),
-             "kt_nm_per_a": ("float", KT_NM_PER_A), "position_max_rad": ("pos", 12.5),
-             "limit_torque_nm": ("float", 12.0), "handshake_timeout_s": ("float", 1.0),
+             "kt_nm_per_a": ("float", KT_NM_PER_A), "position_max_rad": ("pos", CYBERGEAR.position_rad),
+             "limit_torque_nm": ("float", CYBERGEAR.torque_nm), "handshake_timeout_s": ("float", 1.0),
              "silent_timeout_s": ("float", 0.05), "can_timeout_s": ("float", 0.05),
-             "rate_hz": ("float", 1000.0), "bitrate": ("int", 1_000_000)}
+             "can_timeout_off": ("bool", False), "rate_hz": ("float", 1000.0), "bitrate": ("int", 1_000_000)}
 _JOINT_KEYS = {"name": ("str", None), "can_id": ("int", None), "direction": ("int", 1),
                "zero_offset_rad": ("float", 0.0), "gear_ratio": ("float", 1.0),
                "torque_scale": ("float", 1.0)}
@@ -171,13 +242,17 @@ def _value(where: str, key: str, kind: str, v: object) -> object:
         if not isinstance(v, str):
             raise ValueError(f"{where}.{key} must be a string, got {v!r}")
         return v
+    if kind == "bool":
+        if not isinstance(v, bool):
+            raise ValueError(f"{where}.{key} must be true or false, got {v!r}")
+        return v
     if kind == "int":
         if isinstance(v, bool) or not isinstance(v, int):
             raise ValueError(f"{where}.{key} must be an integer, got {v!r}")
         return v
     if kind == "pos" and isinstance(v, str):
         if v.strip().lower() in ("4pi", "4*pi"):
-            return 4 * math.pi
+            return CYBERGEAR.position_table_rad
         raise ValueError(f"{where}.{key} must be a number or \"4pi\", got {v!r}")
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise ValueError(f"{where}.{key} must be a number, got {v!r}")

@@ -415,12 +415,14 @@ class CanMotorBus(MotorBus):
     def _set_can_timeout(self, timeout_s: float) -> None:
         """Write the firmware's CAN_TIMEOUT (see protocol.CAN_TIMEOUT_INDEX for the source and its doubts)
         to every motor and read it back; MotorBusError naming the motors where the read-back is missing
-        or differs. `can_timeout_s = 0` in the config skips this (and warns: nothing then stops the motors
-        if this process dies without running its stop handlers, except the separate watchdog)."""
+        or differs. `can_timeout_off = true` (with `can_timeout_s = 0`) in the config skips this and warns:
+        nothing then stops the motors if this process dies without running its stop handlers, except the
+        separate watchdog. The config refuses any other way to 0 ticks."""
         cfg, host, idx = self.config, self.config.host_id, P.CAN_TIMEOUT_INDEX
-        if cfg.can_timeout_s <= 0:
-            log.warning("can_timeout_s = 0: the motors' own CAN timeout is not set; if this process is "
-                        "killed the motors keep their last command unless `sparc-quad motors watchdog` runs")
+        if cfg.can_timeout_off:
+            log.warning("MOTOR WATCHDOG OFF (can_timeout_off = true): the motors' own CAN timeout is not "
+                        "set; if this process is killed the motors keep their last command unless "
+                        "`sparc-quad motors watchdog` runs")
             return
         ticks = cfg.can_timeout_ticks
         with self._cond:
@@ -442,7 +444,8 @@ class CanMotorBus(MotorBus):
         if bad:
             raise MotorBusError(f"could not set the motors' CAN timeout (CAN_TIMEOUT 0x{idx:04X} = {ticks}, "
                                 f"{cfg.can_timeout_s:g} s): {'; '.join(bad)}. Refusing to run: set "
-                                f"can_timeout_s = 0 in the motor config only with the watchdog running")
+                                f"can_timeout_s = 0 and can_timeout_off = true in the motor config only with "
+                                f"the watchdog running")
         self.can_timeout_confirmed = {j.name: ticks for j in cfg.joints}
 
     def shutdown(self) -> None:

@@ -33,6 +33,8 @@ from enum import IntEnum
 
 import can
 
+from spine_module.params import CYBERGEAR
+
 ID_MASK_29 = 0x1FFFFFFF
 BROADCAST_REPLY_TARGET = 0xFE  # target of a type-0 reply
 FACTORY_MOTOR_ID = 0x7F
@@ -129,20 +131,23 @@ class ParamSpec:
 # (`sparc-quad motors status` prints the read-back). Because of both doubts the driver reads the value
 # back and refuses to run when it does not match, and README describes the separate watchdog fallback.
 CAN_TIMEOUT_INDEX = 0x200C
-CAN_TIMEOUT_TICKS_PER_S = 20_000
+CAN_TIMEOUT_TICKS_PER_S = CYBERGEAR.can_timeout_ticks_per_s
+CAN_TIMEOUT_MAX_TICKS = CYBERGEAR.can_timeout_max_ticks
+_I, _V, _T = CYBERGEAR.current_a, CYBERGEAR.velocity_rad_s, CYBERGEAR.torque_nm
 
 PARAMS: tuple[ParamSpec, ...] = (
-    ParamSpec(CAN_TIMEOUT_INDEX, "CAN_TIMEOUT", "I", 0, 100_000, True, "1/20000 s"),
+    ParamSpec(CAN_TIMEOUT_INDEX, "CAN_TIMEOUT", "I", 0, CAN_TIMEOUT_MAX_TICKS, True,
+              f"1/{CAN_TIMEOUT_TICKS_PER_S} s"),
     ParamSpec(0x7005, "run_mode", "B", 0, 3, True),
-    ParamSpec(0x7006, "iq_ref", "f", -23.0, 23.0, True, "A"),
-    ParamSpec(0x700A, "spd_ref", "f", -30.0, 30.0, True, "rad/s"),
-    ParamSpec(0x700B, "limit_torque", "f", 0.0, 12.0, True, "N*m"),
+    ParamSpec(0x7006, "iq_ref", "f", -_I, _I, True, "A"),
+    ParamSpec(0x700A, "spd_ref", "f", -_V, _V, True, "rad/s"),
+    ParamSpec(0x700B, "limit_torque", "f", 0.0, _T, True, "N*m"),
     ParamSpec(0x7010, "cur_kp", "f", None, None, True),
     ParamSpec(0x7011, "cur_ki", "f", None, None, True),
     ParamSpec(0x7014, "cur_filt_gain", "f", 0.0, 1.0, True),
     ParamSpec(0x7016, "loc_ref", "f", None, None, True, "rad"),
-    ParamSpec(0x7017, "limit_spd", "f", 0.0, 30.0, True, "rad/s"),
-    ParamSpec(0x7018, "limit_cur", "f", 0.0, 23.0, True, "A"),
+    ParamSpec(0x7017, "limit_spd", "f", 0.0, _V, True, "rad/s"),
+    ParamSpec(0x7018, "limit_cur", "f", 0.0, _I, True, "A"),
     ParamSpec(0x7019, "mechPos", "f", None, None, False, "rad"),
     ParamSpec(0x701A, "iqf", "f", None, None, False, "A"),
     ParamSpec(0x701B, "mechVel", "f", None, None, False, "rad/s"),
@@ -167,17 +172,17 @@ def param_spec(key: int | str) -> ParamSpec:
 # --- scaling -------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Ranges:
-    """Ranges of the uint16 fields of types 1 and 2."""
+    """Ranges of the uint16 fields of types 1 and 2 (defaults: `spine_module.params.CYBERGEAR`)."""
 
-    position_max: float = 12.5  # rad; 4*pi per the manual's tables (see module docstring)
-    velocity_max: float = 30.0  # rad/s
-    torque_max: float = 12.0  # N*m
-    kp_max: float = 500.0  # N*m/rad
-    kd_max: float = 5.0  # N*m*s/rad
+    position_max: float = CYBERGEAR.position_rad  # rad; 4*pi per the manual's tables (module docstring)
+    velocity_max: float = CYBERGEAR.velocity_rad_s  # rad/s
+    torque_max: float = CYBERGEAR.torque_nm  # N*m
+    kp_max: float = CYBERGEAR.kp_nm_rad  # N*m/rad
+    kd_max: float = CYBERGEAR.kd_nm_s_rad  # N*m*s/rad
 
 
 DEFAULT_RANGES = Ranges()
-MANUAL_TABLE_RANGES = Ranges(position_max=4 * math.pi)
+MANUAL_TABLE_RANGES = Ranges(position_max=CYBERGEAR.position_table_rad)
 U16_MAX = 0xFFFF
 
 
@@ -486,7 +491,12 @@ def decode_from_motor(msg: can.Message, host_id: int | None = None, motor_ids: s
         if index not in PARAM_BY_INDEX:
             raise FrameError(f"read reply for unknown parameter {index:#06x}", msg)
         ok = (data2 >> 8) == 0
-        value = _decode_param_value(PARAM_BY_INDEX[index], data[4:]) if ok else 0
+        spec = PARAM_BY_INDEX[index]
+        value = _decode_param_value(spec, data[4:]) if ok else 0
+        if ok and not (math.isfinite(value) and (spec.lo is None or spec.lo <= value)
+                       and (spec.hi is None or value <= spec.hi)):
+            raise FrameError(f"read reply for {spec.name}: value {value!r} is not a finite number in "
+                             f"[{spec.lo}, {spec.hi}]", msg)
         return ParamReadReply(motor_id, target, index=index, value=value, ok=ok)
     fault_value, warning_value = struct.unpack("<II", data[:8])
     return FaultFrame(motor_id, target, fault_value=fault_value, warning_value=warning_value,

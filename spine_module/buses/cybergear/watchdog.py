@@ -25,6 +25,10 @@ from spine_module.buses.cybergear import protocol as P
 log = logging.getLogger(__name__)
 
 _RUNNING_TYPES = (P.CommType.ENABLE, P.CommType.OPERATION_CONTROL, P.CommType.PARAM_WRITE)
+# deadlines a fallback for the motors' CAN timeout can have: above the 1 ms check period, and no longer
+# than the firmware's own longest CAN_TIMEOUT (5 s); a longer one is a watchdog that never fires
+DEADLINE_MIN_S = 0.002
+DEADLINE_MAX_S = P.CAN_TIMEOUT_MAX_TICKS / P.CAN_TIMEOUT_TICKS_PER_S
 
 
 class StopWatchdog:
@@ -33,8 +37,9 @@ class StopWatchdog:
     def __init__(self, bus: can.BusABC, motor_ids: Iterable[int], host_id: int = P.DEFAULT_HOST_ID,
                  deadline_s: float = 0.05, repeats: int = 3,
                  clock: Callable[[], float] = time.monotonic) -> None:
-        if not deadline_s > 0:
-            raise ValueError(f"deadline_s must be > 0, got {deadline_s}")
+        if not DEADLINE_MIN_S <= deadline_s <= DEADLINE_MAX_S:
+            raise ValueError(f"watchdog deadline must be in [{DEADLINE_MIN_S:g}, {DEADLINE_MAX_S:g}] s, got "
+                             f"{deadline_s:g}")
         self.bus, self.ids, self.host_id = bus, tuple(motor_ids), host_id
         self.deadline_s, self.repeats, self.clock = deadline_s, repeats, clock
         self.armed = False

@@ -29,7 +29,7 @@ def test_default_config_file():
 
 def test_config_file_is_user_editable(tmp_path):
     text = DEFAULT_CONFIG_PATH.read_text().replace('torque_mode = "operation"', 'torque_mode = "current"')
-    text = text.replace("position_max_rad = 12.5", 'position_max_rad = "4pi"')
+    text = text.replace("[bus]\n", '[bus]\nposition_max_rad = "4pi"\n')
     path = tmp_path / "motors.toml"
     path.write_text(text)
     cfg = load_config(path)

@@ -118,7 +118,8 @@ def test_emulated_can_timeout_stops_a_motor_on_its_own_clock():
     t = [0.0]
     with virtual_rig(lockstep=False, clock=lambda: t[0]) as (channel, emu, _sn):
         for timeout_s, expect_stop in ((0.0, False), (0.03, True)):
-            with CanMotorBus(rig_config(can_timeout_s=timeout_s), interface="virtual", channel=channel) as mb:
+            cfg = rig_config(can_timeout_s=timeout_s, can_timeout_off=timeout_s == 0)
+            with CanMotorBus(cfg, interface="virtual", channel=channel) as mb:
                 mb.start()
                 assert mb.receive(1.0) is not None
                 mb.send(MotorCommand(tau_ff=np.full(3, 0.5)))
