@@ -304,6 +304,9 @@ def run_node(args: argparse.Namespace) -> int:
         return 2
     io = LcmNodeIO(lc)
     node = SpineNode(Controllers.default(), bus, io, _node_config(args))
+    # before start(): a full collection holds the interpreter for tens of ms, during which nothing could
+    # feed the motors that start() enabled (their CAN timeout is 50 ms)
+    rt_done.append(realtime.freeze_startup_objects())
     try:
         bus.start()
     except MotorBusError as exc:  # e.g. a motor that did not answer: say which, stop the others, exit
@@ -312,7 +315,6 @@ def run_node(args: argparse.Namespace) -> int:
         io.close()
         return 1
     log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
-    rt_done.append(realtime.freeze_startup_objects())
     try:
         with _stop_on_signals() as stop:
             if args.clock == "lockstep":

@@ -70,8 +70,8 @@ def run_node_over_can(script: BenchScript, node_config: NodeConfig | None = None
         emu = CyberGearEmulator(ebus, cfg.ids, coupling, lockstep=True, dt=world.dt_s, ranges=cfg.ranges)
         emu.keep_log = False
         dt_us = round(world.dt_s * 1e6)
-        mb = CanMotorBus(cfg, interface="virtual", channel=channel,
-                         stamp_clock=lambda: coupling.steps * dt_us * 1e-6)
+        mb = CanMotorBus(cfg, interface="virtual", channel=channel,  # lockstep: no zero-torque hold
+                         stamp_clock=lambda: coupling.steps * dt_us * 1e-6, hold_max_s=0.0)
         node = SpineNode(controllers if controllers is not None else Controllers.default(), mb, io,
                          node_config)
 

@@ -96,8 +96,8 @@ def static_trial_over_can(controller, duration_s: float, force: ForceLaw, *, pla
         emu = CyberGearEmulator(ebus, cfg.ids, coupling, lockstep=True, dt=world.dt_s, ranges=cfg.ranges)
         emu.keep_log = False
         try:
-            with CanMotorBus(cfg, interface="virtual", channel=channel,
-                             stamp_clock=lambda: world.time_s) as mb:
+            with CanMotorBus(cfg, interface="virtual", channel=channel,  # lockstep: no zero-torque hold
+                             stamp_clock=lambda: world.time_s, hold_max_s=0.0) as mb:
                 mb.start()
                 for i in range(n):
                     fb = mb.receive(timeout_s=5.0)

@@ -44,6 +44,11 @@ log = logging.getLogger(__name__)
 
 FAULT_FRAME_FLAG = 1 << 8  # set in MotorFeedback.fault when a type-21 frame arrived from that motor
 CAN_ERR_BUSOFF = 0x40  # SocketCAN error-frame class bit for bus-off
+# From enable (end of `start()`) to the node's first `send`, zero-torque frames keep the motors inside their
+# CAN timeout (HOLD_PERIOD_MAX_S apart, or a fifth of the timeout if shorter), for at most HOLD_MAX_S: a
+# node that has not started controlling by then gets its motors stopped (its first send enables them again)
+HOLD_PERIOD_MAX_S = 0.01
+HOLD_MAX_S = 2.0
 
 
 @dataclass
@@ -86,7 +91,7 @@ class CanMotorBus(MotorBus):
                  interface: str | None = None, channel: str | None = None, bitrate: int | None = None,
                  log_path: str | Path | None = None, fault_raises: bool = True,
                  clock: Callable[[], float] = time.monotonic,
-                 stamp_clock: Callable[[], float] | None = None) -> None:
+                 stamp_clock: Callable[[], float] | None = None, hold_max_s: float = HOLD_MAX_S) -> None:
         if config is None or isinstance(config, (str, Path)):
             config = load_config(config)
         self.config = config
@@ -121,6 +126,13 @@ class CanMotorBus(MotorBus):
         self.ignored: Counter[str] = Counter()  # frames not for us: reason -> count
         self.last_error: str | None = None
         self.can_timeout_confirmed: dict[str, int] = {}  # joint -> CAN_TIMEOUT read back at start-up
+        # zero-torque frames from start() until the first send, for at most hold_max_s (see HOLD_MAX_S); 0:
+        # none, for rigs whose motors' CAN timeout runs on simulated time (a lockstep emulator)
+        self.hold_max_s = hold_max_s
+        self._holding = False
+        self._hold_wake = threading.Event()
+        self._hold_gen = 0  # a hold thread left from an earlier start() sees a newer number and ends
+        self.hold_frames_sent = 0
         self._logger = _SessionLog(log_path) if log_path else None
         self._notifier = can.Notifier(self.bus, [_Listener(self)], timeout=0.05)
         self.load = bus_load(len(config.joints), config.rate_hz, config.bitrate)
@@ -228,6 +240,8 @@ class CanMotorBus(MotorBus):
 
     def send(self, command: MotorCommand) -> None:
         """Encode one frame per motor and queue it without waiting. Raises MotorBusError on faults."""
+        if self._holding:  # the node's first command: from here its own frames feed the motors
+            self._end_hold()
         now = self._clock()
         n = len(self.config.joints)
         if not command.enable:
@@ -283,6 +297,7 @@ class CanMotorBus(MotorBus):
         now = self._clock()
         with self._cond:
             self._enabled = False
+            self._holding = False
             for s in self._state:
                 s.run_seen = False
         for i, j in enumerate(self.config.joints):
@@ -408,9 +423,60 @@ class CanMotorBus(MotorBus):
                 for s in self._state:
                     s.unanswered_since = None
                 self._started = True
+            self._start_hold()
         except BaseException:
             self.stop()
             raise
+
+    # --- from enable to the first command ------------------------------------------------------------
+    def _zero_frames(self) -> list[can.Message]:
+        host = self.config.host_id
+        if self.config.torque_mode == "operation":
+            return [P.encode_operation_control(j.can_id, 0.0, 0.0, 0.0, 0.0, 0.0, self._ranges)
+                    for j in self.config.joints]
+        return [P.encode_param_write(j.can_id, "iq_ref", 0.0, host) for j in self.config.joints]
+
+    def _start_hold(self) -> None:
+        if self.hold_max_s <= 0:
+            return
+        with self._cond:
+            self._holding = True
+            self._hold_gen += 1
+            gen = self._hold_gen
+        self._hold_wake.clear()
+        threading.Thread(target=self._hold, args=(gen,), name="cybergear-hold", daemon=True).start()
+
+    def _end_hold(self) -> None:
+        with self._cond:  # after this no hold frame goes out: the thread sends only under the lock
+            self._holding = False
+        self._hold_wake.set()
+
+    def _hold(self, gen: int) -> None:
+        """Zero-torque frames (operation: type 1 with kp = kd = 0; current: iq_ref = 0) until the node's
+        first send, a stop, or HOLD_MAX_S: the motors were enabled by start() and their CAN timeout counts
+        from then, while the node may need longer than that to reach its first tick."""
+        timeout_s = self.config.can_timeout_s
+        period = min(HOLD_PERIOD_MAX_S, timeout_s / 5) if timeout_s > 0 else HOLD_PERIOD_MAX_S
+        frames = self._zero_frames()
+        deadline = self._clock() + self.hold_max_s
+        while not self._hold_wake.wait(period):
+            with self._cond:
+                if not self._holding or not self._enabled or self._closed or gen != self._hold_gen:
+                    return
+                now = self._clock()
+                if now < deadline:
+                    try:
+                        for i, msg in enumerate(frames):
+                            self._expect_reply(i, now)
+                            self._send(msg)
+                            self.hold_frames_sent += 1
+                    except MotorBusError as e:
+                        self._fault(f"zero-torque frame before the first command: {e}")
+                    continue
+                self._holding = False
+            log.warning("no command within %g s of enabling the motors: motors stopped", self.hold_max_s)
+            self.stop()
+            return
 
     def _set_can_timeout(self, timeout_s: float) -> None:
         """Write the firmware's CAN_TIMEOUT (see protocol.CAN_TIMEOUT_INDEX for the source and its doubts)
@@ -473,7 +539,8 @@ class CanMotorBus(MotorBus):
         dt = max(time.monotonic() - self._t_created, 1e-9)
         return {"tx_frames": self.tx_frames, "rx_frames": self.rx_frames, "tx_per_s": self.tx_frames / dt,
                 "rx_per_s": self.rx_frames / dt, "send_errors": self.send_errors,
-                "stop_frames_sent": self.stop_frames_sent, "ignored": sum(self.ignored.values()),
+                "stop_frames_sent": self.stop_frames_sent, "hold_frames_sent": self.hold_frames_sent,
+                "ignored": sum(self.ignored.values()),
                 "model_utilisation_worst": self.load.utilisation_worst}
 
     def fault_report(self) -> dict[str, dict[str, object]]:

@@ -153,5 +153,6 @@ def test_cybergear_ranges_are_not_copied():
     cg, r = params.CYBERGEAR, P.DEFAULT_RANGES
     assert (r.position_max, r.velocity_max, r.torque_max, r.kp_max, r.kd_max) == (
         cg.position_rad, cg.velocity_rad_s, cg.torque_nm, cg.kp_nm_rad, cg.kd_nm_s_rad)
-    assert params.SENSORS.position_lsb_rad == pytest.approx(2 * r.position_max / 0xFFFF)
+    assert params.SENSORS.position_lsb_rad == pytest.approx(2 * cg.position_table_rad / 0xFFFF)
+    assert params.SENSORS.torque_lsb_nm == pytest.approx(2 * r.torque_max / 0xFFFF)
     assert load_config().position_max_rad == cg.position_rad and load_config().limit_torque_nm == cg.torque_nm
