@@ -1,8 +1,8 @@
 """Across processes on python-can's `udp_multicast` in a private network namespace,
 in real time, as a user would run them:
 
-1. the README's no-hardware recipe (`motors emulate` + `spine-node --motors can`) ends with no latched
-   motor fault (it latched "left run mode" in 4 of 4 runs before the stop-frame race was fixed);
+1. the no-hardware recipe of docs/cybergear.md (`motors emulate` + `spine-node --motors can`) ends with
+   no latched motor fault (it latched "left run mode" in 4 of 4 runs before the stop-frame race was fixed);
 2. SIGKILL of `spine-node --motors can` while it drives the emulated motors, "the robot" publishing torso
    state and torque commands before the node starts: with the shipped motors.toml (CAN timeout 0.05 s) the
    node drives without a trip or a latched fault from enable on, and after the kill every motor is at zero
@@ -195,7 +195,7 @@ def test_readme_recipe_and_sigkill_stops_motors_within_their_can_timeout(tmp_pat
 @pytest.mark.slow
 def test_sigkill_without_can_timeout_keeps_motors_running_unless_the_watchdog_runs(tmp_path):
     res = _run(tmp_path, "no_timeout,watchdog")
-    r = res["no_timeout"]  # the hazard the issue found: nothing stops the motors
+    r = res["no_timeout"]  # the hazard: with no CAN timeout nothing stops the motors
     _killed_while_driving(r)
     emu = r["emu"]
     assert emu["can_timeout_trips"] == []

@@ -1,5 +1,5 @@
 """Every numeric option is checked where it is parsed: a bad value is argparse's usage line naming the
-option and exit 2, never a traceback, a silent spin or a silently disabled feature (issue 10 items 7, 8)."""
+option and exit 2, never a traceback, a silent spin or a silently disabled feature."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The trial reader: issue 10 item 9 (every malformed input a clear error naming the file, exit 2 on the
-CLI, nothing written) and issue 12's import features (motor-side logs through a transmission matrix,
+"""The trial reader: every malformed input a clear error naming the file (exit 2 on the CLI, nothing
+written), and the import features of real arm logs (motor-side logs through a transmission matrix,
 torque constants and zero offsets; measured torque; dq differentiated when absent)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 10, motors side: joints map by name, motors.toml is checked field by field, the motors' CAN
+"""Safety with real motors: joints map by name, motors.toml is checked field by field, the motors' CAN
 timeout is written and read back (refusing to run without it), and our own stop never reads as a fault."""
 
 from __future__ import annotations
