@@ -328,6 +328,7 @@ def run_node(args: argparse.Namespace) -> int:
                "achieved_rate_hz": res.achieved_rate_hz,
                "jitter_max_s": res.jitter_max_s, "overruns": res.overruns,
                "period": node.stats.histogram.summary(), "realtime": rt_done, "rejected": node.rejected_count,
+               "rejected_by_channel": io.inbox.rejected,
                "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
                "repeated_ticks": node.repeated_ticks,
                "bus_faults": list(getattr(bus, "latched_faults", [])),  # latched in the motor backend
