@@ -4,7 +4,7 @@ Sources: the SPARC paper (Table II actuator data, Table III link data, Section I
 CyberGear manual for actuator limits. Where the paper is silent we make an interpretation; each one is
 named `INTERPRETATION` in a comment here and is repeated in the generated URDF's comments.
 
-Geometry (INTERPRETATION, see docs in README "Model"):
+Geometry (INTERPRETATION, see docs/spine.md, "The spine model"):
   universe --q1 (torso pitch, about +y)--> hind_body --q2--> hind_spine --q3--> front_spine --q4-->
   front_body --fixed--> end_effector.
   Each link extends along its own +x by Table III's length; the next joint sits at the link's tip. With

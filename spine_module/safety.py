@@ -2,7 +2,7 @@
 
 Nothing here reads a clock or keeps hidden state: the node passes `now` (its own clock, s), the receipt
 times of its inputs and the previous `SafetyState`, and gets back a new state and a `Verdict` saying
-which mode to run and how. Every behaviour below is documented in README ("Safety") and has a
+which mode to run and how. Every behaviour below is documented in docs/robot-side.md ("Safety") and has a
 fault-injection test in `tests/spine_module/node/` and `tests/integration/`.
 
 Behaviours (deadlines from `params.SAFETY`):

@@ -8,7 +8,7 @@ from sparc_quad.gap.synth import synth
 from sparc_quad.gap.workflow import run
 
 # One joint per effect where the spine's bench excitation makes it identifiable (q3 carries a mid-size
-# inertia and its commanded torque crosses zero; see the README section on the gap workflow).
+# inertia and its commanded torque crosses zero; see docs/gap.md).
 EFFECT_CASES = {
     "coulomb_friction": "coulomb_friction:joint=q3",
     "viscous_friction": "viscous_friction:joint=q2",

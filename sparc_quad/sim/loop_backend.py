@@ -13,7 +13,7 @@ import signal
 
 BACKENDS = ("auto", "numba", "python")
 # "auto" compiles only runs at least this long (simulated s). Measured on this project's 2-core machine
-# (README "Performance"): loading numba and both cached kernels costs ~0.7-0.8 s of CPU per process; the
+# (docs/performance.md): loading numba and both cached kernels costs ~0.7-0.8 s of CPU per process; the
 # kernels save ~0.1 s of CPU per simulated second (spine ~38 us + gait ~55 us per 1 kHz step).
 NUMBA_PAYBACK_SIM_S = 8.0
 

@@ -30,7 +30,8 @@ class PlantConfig:
     velocity half the estimate (the hard-to-identify parameter the paper blames for low-speed phase drift).
     The plant keeps the compensator's tanh smoothing (beta): with a stiction-like plant (beta 500-2000
     s/rad, which the bench integrates stably) the over-compensating impedance loop stick-slips during
-    holds and static k_x = 300 N/m misses the 1.5 % criterion (1.9-2.4 % measured); see README.
+    holds and static k_x = 300 N/m misses the 1.5 % criterion (1.9-2.4 % measured); see
+    docs/bench-experiments.md.
     """
 
     friction: P.StribeckParams = field(

@@ -1,7 +1,7 @@
 """LCM motor bus: the node's motors are a (simulated) robot on the other end of an LCM URL.
 
-Channels (see README): commands go out on SPARC_MOTOR_COMMAND (sparc.motor_command_t, carrying the seq
-of the feedback they answer, for lockstep), feedback comes in on SPARC_MOTOR_FEEDBACK
+Channels (docs/robot-side.md): commands go out on SPARC_MOTOR_COMMAND (sparc.motor_command_t, carrying
+the seq of the feedback they answer, for lockstep), feedback comes in on SPARC_MOTOR_FEEDBACK
 (sparc.motor_feedback_t), decoded and validated by `spine_module.messages`. A rejected feedback message
 raises `MotorBusError` from `receive` with the `MessageError` (naming the field) as its cause.
 

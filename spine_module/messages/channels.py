@@ -1,4 +1,4 @@
-"""LCM channel names of the spine module (documented in README, "Spine node and LCM interface")."""
+"""LCM channel names of the spine module (documented in docs/robot-side.md, "Channels")."""
 
 import os
 

@@ -56,7 +56,7 @@ SCRIPT = textwrap.dedent("""
     sn = Sniffer()
     nt = can.Notifier(sbus, [sn], timeout=0.05)
 
-    if "recipe" in phases:  # the README recipe, as written (default LCM URL and motor config)
+    if "recipe" in phases:  # docs/cybergear.md's recipe as written (default LCM URL and motor config)
         emu = emulator()
         node = subprocess.run([*cli, "spine-node", "--motors", "can", *can_opts, "--duration", "3"],
                               capture_output=True, text=True, timeout=180)

@@ -102,7 +102,7 @@ class CyberGearConfig:
     silent_timeout_s: float = 0.05  # a motor silent this long mid-run is a lost motor
     # the motors' own CAN watchdog (firmware CAN_TIMEOUT, 0x200C): no frame for this long -> the motor
     # stops. Written and read back at start-up. Off only with can_timeout_s = 0 AND can_timeout_off = True
-    # (then run `motors watchdog`, see README): a value that rounds to 0 ticks is refused, not "off"
+    # (then run `motors watchdog`, see docs/cybergear.md): a value rounding to 0 ticks is refused, not "off"
     can_timeout_s: float = 0.05
     can_timeout_off: bool = False
     rate_hz: float = 1000.0  # for the bus-load check

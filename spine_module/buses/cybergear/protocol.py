@@ -129,7 +129,7 @@ class ParamSpec:
 # same frames), NOT confirmed on a CyberGear here. The unit is taken from RobStride's manual, whose
 # CAN_TIMEOUT note reads "20000 = 1 s" (50 us ticks): ASSUMED for the CyberGear, check on the first motor
 # (`sparc-quad motors status` prints the read-back). Because of both doubts the driver reads the value
-# back and refuses to run when it does not match, and README describes the separate watchdog fallback.
+# back and refuses to run when it does not match; docs/cybergear.md describes the watchdog fallback.
 CAN_TIMEOUT_INDEX = 0x200C
 CAN_TIMEOUT_TICKS_PER_S = CYBERGEAR.can_timeout_ticks_per_s
 CAN_TIMEOUT_MAX_TICKS = CYBERGEAR.can_timeout_max_ticks

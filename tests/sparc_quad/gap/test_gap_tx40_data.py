@@ -18,7 +18,7 @@ from tests.paths import DATA as TEST_DATA
 
 DATA = TEST_DATA / "staubli_tx40"
 URDF = DATA / im.URDF_NAME
-WINDOWS = ((0.0, 4.0), (4.0, 8.0))  # what README.md says tx40_00/tx40_01 are
+WINDOWS = ((0.0, 4.0), (4.0, 8.0))  # what tests/data/staubli_tx40/README.md says tx40_00/tx40_01 are
 
 
 def load_motor_trial(csv: Path) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
