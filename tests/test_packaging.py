@@ -49,7 +49,7 @@ def test_spine_module_node_path_imports_no_scipy_or_matplotlib():
     (["bound", "--duration", "0.1"], "pybullet", "sim"),
     (["bound", "--duration", "0.1", "--engine", "mujoco", "--host", "spined-dog"], "mujoco", "mujoco"),
     (["bench", "static", "--quick"], "scipy", "sim"),
-    (["gap", "trial.csv"], "scipy", "gap"),
+    (["gap", "run", "trial.csv"], "scipy", "gap"),
 ])
 def test_missing_extra_is_named_with_exit_2(tmp_path, command, module, extra):
     """As in a robot-side install: the module is not importable (sys.modules[name] = None blocks it)."""

@@ -9,10 +9,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import re
+import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from spine_module import params as P
+from spine_module.messages import codec
 
 Parse = Callable[[str], float]
 
@@ -51,20 +55,148 @@ def in_range(lo: float | None = None, hi: float | None = None, *, lo_open: bool 
     return parse
 
 
+# ---- limits of what a run can do (each with its reason) ----
+LOOP_RATE_MAX_HZ = P.CONTROL_RATE_HZ  # a Python loop paced by the monotonic clock keeps 1 kHz, not more
+NODE_RATE_MIN_HZ = 100.0  # the node's deadlines (torso stale 20 ms) need a tick at least every 10 ms
+SIM_DURATION_MAX_S = 600.0  # simulated runs keep their whole log in memory at 1 kHz (see docs/cli.md)
+WALL_DURATION_MAX_S = 7 * 86400.0  # runs that keep no log (node, emulator, watchdog, spine-cmd): a week
+WAIT_MAX_S = 3600.0  # waits for a peer or a reply
+SEED_MAX = 2**32 - 1  # numpy's and pybullet's seed range
+
+
 positive_float = in_range(0.0, lo_open=True)
 nonnegative_float = in_range(0.0)
 positive_int = in_range(1, kind=int)
 nonnegative_int = in_range(0, kind=int)
 fraction_open = in_range(0.0, 1.0, lo_open=True, hi_open=True)  # strictly between 0 and 1
+seed = in_range(0, SEED_MAX, kind=int)
+sim_duration = in_range(0.0, SIM_DURATION_MAX_S, lo_open=True)
+wall_duration = in_range(0.0, WALL_DURATION_MAX_S, lo_open=True)
+wait_s = in_range(0.0, WAIT_MAX_S, lo_open=True)
+loop_rate = in_range(0.0, LOOP_RATE_MAX_HZ, lo_open=True)
+node_rate = in_range(NODE_RATE_MIN_HZ, LOOP_RATE_MAX_HZ)
 
 
-def number_list(item: Parse = finite_float) -> Parse:
-    """Comma-separated numbers, each checked by `item`, as a tuple (e.g. `--kx 300,400,500`)."""
+def nonempty(text: str) -> str:
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must not be empty")
+    return text
+
+
+def regex(text: str) -> str:
+    """A non-empty regular expression that compiles (as LCM's channel subscriptions use)."""
+    nonempty(text)
+    try:
+        re.compile(text)
+    except re.error as exc:
+        raise argparse.ArgumentTypeError(f"not a regular expression ({exc}): {text!r}") from None
+    return text
+
+
+LCM_SCHEMES = ("udpm", "mpudpm", "memq", "file", "tcpq")
+
+
+def lcm_url(text: str) -> str:
+    """An LCM provider URL: udpm://239.255.76.67:7667?ttl=0, memq://, file:///path?mode=r, ..."""
+    scheme, sep, _ = text.partition("://")
+    if not sep or scheme not in LCM_SCHEMES:
+        raise argparse.ArgumentTypeError(
+            f"expected an LCM URL (scheme {', '.join(LCM_SCHEMES)}), e.g. udpm://239.255.76.67:7667?ttl=0, "
+            f"got {text!r}")
+    return text
+
+
+def id_list(lo: int, hi: int) -> Parse:
+    """Comma-separated distinct integers in [lo, hi], decimal or 0x-hex (e.g. motor ids 1,2,3)."""
+
+    def parse(text: str) -> list[int]:
+        out: list[int] = []
+        for t in (t.strip() for t in text.split(",")):
+            try:
+                out.append(int(t, 0))
+            except ValueError:
+                raise argparse.ArgumentTypeError(
+                    f"expected comma-separated integers in [{lo}, {hi}], got {text!r}") from None
+        bad = [i for i in out if not lo <= i <= hi]
+        if bad:
+            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {bad[0]} in {text!r}")
+        if len(set(out)) != len(out):
+            raise argparse.ArgumentTypeError(f"an id is repeated in {text!r}")
+        return out
+
+    parse.__name__ = f"integers in [{lo}, {hi}]"
+    return parse
+
+
+# ---- paths: checked while parsing, before any work starts ----
+
+def _check_writable(path: Path, what: str) -> None:
+    """`path`'s nearest existing ancestor is a folder this process can create files in."""
+    anc = path.absolute()
+    while not anc.exists():
+        anc = anc.parent
+    if not anc.is_dir():
+        raise argparse.ArgumentTypeError(f"{what} {path}: {anc} is a file, not a folder")
+    try:
+        fd, probe = tempfile.mkstemp(dir=anc, prefix=".sparc-quad-probe-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"{what} {path}: cannot write in {anc} "
+                                         f"({exc.strerror or exc})") from None
+
+
+def output_dir(text: str) -> Path:
+    """A folder to write into: not empty, not a file, creatable and writable."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a folder (an empty path would write into the current "
+                                         "folder)")
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{path} exists and is not a folder")
+    _check_writable(path, "folder")
+    return path
+
+
+def output_file(suffixes: Sequence[str] | None = None) -> Callable[[str], Path]:
+    """A file to write: not empty, not a folder, its folder creatable and writable, one of `suffixes`."""
+
+    def parse(text: str) -> Path:
+        if not text.strip():
+            raise argparse.ArgumentTypeError("must name a file")
+        path = Path(text)
+        if path.is_dir():
+            raise argparse.ArgumentTypeError(f"{path} is a folder")
+        if suffixes is not None:
+            suffix = "".join(path.suffixes[-2:]) if path.suffix == ".gz" else path.suffix
+            base = suffix.removesuffix(".gz")
+            if base.lower() not in suffixes:
+                raise argparse.ArgumentTypeError(f"{path}: unknown extension {suffix or '(none)'!r}; "
+                                                 f"one of {', '.join(suffixes)}")
+        _check_writable(path.parent, "file")
+        return path
+
+    parse.__name__ = "file path"
+    return parse
+
+
+# python-can's log writers by extension (can.Logger; each may end in .gz), as the can package lists them
+CAN_LOG_SUFFIXES = (".asc", ".blf", ".csv", ".db", ".log", ".mf4", ".trc", ".txt")
+
+
+LIST_MAX = 100  # values in one swept option: each is a whole experiment
+
+
+def number_list(item: Parse = finite_float, max_len: int = LIST_MAX) -> Parse:
+    """Comma-separated numbers, each checked by `item`, as a tuple (e.g. `--kx 300,400,500`); a leading
+    minus is a number (`--kx -5,300` reaches the range check, see parser.Parser)."""
 
     def parse(text: str) -> tuple[float, ...]:
         parts = [t.strip() for t in text.split(",")]
         if not parts or any(not t for t in parts):
             raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}")
+        if len(parts) > max_len:
+            raise argparse.ArgumentTypeError(f"at most {max_len} values, got {len(parts)}")
         out = []
         for t in parts:
             try:
@@ -80,37 +212,40 @@ def number_list(item: Parse = finite_float) -> Parse:
 
 # ---- spine gains: --kx --kz --kth (N/m, N/m, N*m/rad), --dx --dz --dth (N*s/m, N*s/m, N*m*s/rad) ----
 
-GAIN_OPTIONS: dict[str, tuple[str, str, float]] = {
-    "kx": ("stiffness along x", "N/m", float(P.K_DEFAULT[0])),
-    "kz": ("stiffness along z", "N/m", float(P.K_DEFAULT[1])),
-    "kth": ("stiffness in pitch theta", "N*m/rad", float(P.K_DEFAULT[2])),
-    "dx": ("damping along x", "N*s/m", float(P.D_DEFAULT[0])),
-    "dz": ("damping along z", "N*s/m", float(P.D_DEFAULT[1])),
-    "dth": ("damping in pitch theta", "N*m*s/rad", float(P.D_DEFAULT[2])),
+# name -> (what, unit, default, largest value the node accepts: codec.K_MAX / D_MAX)
+GAIN_OPTIONS: dict[str, tuple[str, str, float, float]] = {
+    "kx": ("stiffness along x", "N/m", float(P.K_DEFAULT[0]), codec.K_MAX[0]),
+    "kz": ("stiffness along z", "N/m", float(P.K_DEFAULT[1]), codec.K_MAX[1]),
+    "kth": ("stiffness in pitch theta", "N*m/rad", float(P.K_DEFAULT[2]), codec.K_MAX[2]),
+    "dx": ("damping along x", "N*s/m", float(P.D_DEFAULT[0]), codec.D_MAX[0]),
+    "dz": ("damping along z", "N*s/m", float(P.D_DEFAULT[1]), codec.D_MAX[1]),
+    "dth": ("damping in pitch theta", "N*m*s/rad", float(P.D_DEFAULT[2]), codec.D_MAX[2]),
 }
 
 
 def add_gain_options(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
                      names: Sequence[str] = tuple(GAIN_OPTIONS), *, sweep: Sequence[str] = (),
                      defaults: dict[str, object] | None = None, prefix: str = "") -> None:
-    """Add the spine-gain options `names` (each >= 0, finite); those in `sweep` take comma-separated lists.
+    """Add the spine-gain options `names` (each in [0, the node's limit]); those in `sweep` take
+    comma-separated lists.
 
     Defaults come from params.py (`K_DEFAULT`, `D_DEFAULT`) unless `defaults` names another params value.
     `prefix` goes in front of each help text (e.g. "static: ").
     """
     defaults = defaults or {}
     for name in names:
-        what, unit, default = GAIN_OPTIONS[name]
+        what, unit, default, top = GAIN_OPTIONS[name]
         value = defaults.get(name, default)
+        item = in_range(0.0, top)
         if name in sweep:
             value = tuple(float(v) for v in value) if isinstance(value, Sequence) else (float(value),)  # type: ignore[arg-type]
-            parser.add_argument(f"--{name}", type=number_list(nonnegative_float), default=value,
+            parser.add_argument(f"--{name}", type=number_list(item), default=value,
                                 metavar="V[,V...]",
-                                help=f"{prefix}spine {what}, {unit}; comma-separated values are swept "
-                                     f"(default: {','.join(f'{v:g}' for v in value)})")
+                                help=f"{prefix}spine {what}, {unit}, 0..{top:g}; comma-separated values "
+                                     "are swept")
         else:
-            parser.add_argument(f"--{name}", type=nonnegative_float, default=float(value),  # type: ignore[arg-type]
-                                help=f"{prefix}spine {what}, {unit} (default: %(default)s)")
+            parser.add_argument(f"--{name}", type=item, default=float(value),  # type: ignore[arg-type]
+                                help=f"{prefix}spine {what}, {unit}, 0..{top:g}")
 
 
 def stiffness(args: argparse.Namespace) -> tuple[float, float, float]:
@@ -125,17 +260,21 @@ def damping(args: argparse.Namespace) -> tuple[float, float, float]:
 
 # ---- CyberGear CAN bus: one spelling on `motors` and `spine-node --motors can` ----
 
+CAN_BITRATE_MIN, CAN_BITRATE_MAX = 10_000, 1_000_000  # bit/s; CyberGear: 1 Mbit/s
+
+
 def add_can_options(parser: argparse.ArgumentParser) -> None:
     """--can-interface --can-channel --can-bitrate --can-log --motor-config, as python-can names them."""
     g = parser.add_argument_group("CyberGear motors on CAN")
-    g.add_argument("--can-interface", default="socketcan",
-                   help="python-can interface: socketcan, pcan, slcan, gs_usb, virtual, udp_multicast, ... "
-                        "(default: %(default)s)")
-    g.add_argument("--can-channel", default="can0", help="python-can channel (default: %(default)s)")
-    g.add_argument("--can-bitrate", type=positive_int, default=None,
-                   help="CAN bit rate, bit/s (default: the motor config's)")
-    g.add_argument("--can-log", default=None, metavar="PATH",
-                   help="log every frame of the session with python-can (.asc, .blf, .log, .csv)")
+    g.add_argument("--can-interface", type=nonempty, default="socketcan",
+                   help="python-can interface: socketcan, pcan, slcan, gs_usb, virtual, udp_multicast, ...")
+    g.add_argument("--can-channel", type=nonempty, default="can0", help="python-can channel")
+    g.add_argument("--can-bitrate", type=in_range(CAN_BITRATE_MIN, CAN_BITRATE_MAX, kind=int), default=None,
+                   help=f"CAN bit rate, bit/s, {CAN_BITRATE_MIN}..{CAN_BITRATE_MAX} (classic CAN) "
+                        "(default: the motor config's)")
+    g.add_argument("--can-log", type=output_file(CAN_LOG_SUFFIXES), default=None, metavar="PATH",
+                   help=f"log every frame of the session with python-can ({', '.join(CAN_LOG_SUFFIXES)}, "
+                        "each optionally .gz)")
     g.add_argument("--motor-config", type=Path, default=None, metavar="TOML",
                    help="per-joint CyberGear config (default: the packaged motors.toml)")
 
@@ -143,4 +282,4 @@ def add_can_options(parser: argparse.ArgumentParser) -> None:
 def can_options(args: argparse.Namespace) -> dict[str, object]:
     """The CAN options as keyword arguments of the CAN backend's `make_bus` (see buses.registry)."""
     return {"interface": args.can_interface, "channel": args.can_channel, "bitrate": args.can_bitrate,
-            "log_path": args.can_log, "config_path": args.motor_config}
+            "log_path": None if args.can_log is None else str(args.can_log), "config_path": args.motor_config}

@@ -8,20 +8,21 @@ from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
-from sparc_quad.cli.args import add_gain_options, nonnegative_int, positive_int
+from sparc_quad.cli.args import add_gain_options, in_range, output_dir, seed
 from sparc_quad.cli.output import atomic_dir
 from spine_module import params as P
 
 UNITS = "Units: stiffness N/m, damping N*s/m, displacement m, force N, time s."
 QUASI_STATIC = {"dx": P.BENCH_QUASI_STATIC_D_X_N_S_M}
+TRIALS_MAX = 1000  # each trial is seconds of simulation: more is hours of CPU and a typo
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", type=Path, default=Path("out/bench"), help="output folder (default: %(default)s)")
-    p.add_argument("--seed", type=nonnegative_int, default=0,
-                   help="noise seed of the first trial (default: 0)")
-    p.add_argument("--plant", type=_plant_file, default=None,
-                   help="plant-model JSON (friction truth, rotor inertia, sensors) instead of the default")
+    p.add_argument("--out", type=output_dir, default=Path("out/bench"), help="output folder")
+    p.add_argument("--seed", type=seed, default=0, help="noise seed of the first trial")
+    p.add_argument("--plant", type=_plant_file, default=None, metavar="JSON",
+                   help="plant-model JSON (friction truth, rotor inertia, sensors) (default: the simulated "
+                        "bench's own, sparc_quad.sim.plant.PlantConfig)")
     p.add_argument("--ideal-plant", action="store_true",
                    help="plant equal to the controller's model: no friction mismatch, quantisation or noise")
     p.add_argument("--quick", action="store_true", help="reduced-size run (fewer values, shorter trials)")
@@ -34,20 +35,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     s = bsub.add_parser("static", help="quasi-static push-pull, stiffness by OLS (Table IV, Fig. 4)",
                         description="Push-pull along x; writes static.json, static.csv, static.png. " + UNITS)
     add_gain_options(s, sweep=("kx",), defaults={"kx": P.BENCH_STATIC_K_X_N_M, **QUASI_STATIC})
-    s.add_argument("--controller", choices=["impedance", "pd"], default="impedance")
+    s.add_argument("--controller", choices=["impedance", "pd"], default="impedance",
+                   help="impedance: eq. (2)-(4) with friction compensation; pd: task-space PD (Fig. 7)")
     _common(s)
     s.set_defaults(func=run_static)
     d = bsub.add_parser("dynamic", help="displace 0.037 m and release (Fig. 5)",
                         description="Release trials; writes dynamic.json and dynamic.png. " + UNITS)
     add_gain_options(d, sweep=("kx", "dx"),
                      defaults={"kx": P.BENCH_DYNAMIC_K_X_N_M, "dx": P.BENCH_DYNAMIC_D_X_N_S_M})
-    d.add_argument("--trials", type=positive_int, default=None, help="trials per case (default: 10)")
+    d.add_argument("--trials", type=in_range(1, TRIALS_MAX, kind=int), default=None,
+                   help=f"trials per case, up to {TRIALS_MAX} (default: 10)")
     _common(d)
     d.set_defaults(func=run_dynamic)
     q = bsub.add_parser("pd", help="task-space PD vs impedance, quasi-static holds (Fig. 7)",
                         description="Hand-held displacements; writes pd.json and pd.png. " + UNITS)
     add_gain_options(q, sweep=("kx",), defaults={"kx": P.BENCH_PD_K_X_N_M, **QUASI_STATIC})
-    q.add_argument("--trials", type=positive_int, default=None, help="trials per k (default: 5)")
+    q.add_argument("--trials", type=in_range(1, TRIALS_MAX, kind=int), default=None,
+                   help=f"trials per k, up to {TRIALS_MAX} (default: 5)")
     _common(q)
     q.set_defaults(func=run_pd)
     a = bsub.add_parser("all", help="static, dynamic and pd in one go",

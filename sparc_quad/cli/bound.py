@@ -8,29 +8,42 @@ import json
 import logging
 import math
 import signal
-import sys
 import threading
 from pathlib import Path
 
 from sparc_quad.cli.args import (
+    SIM_DURATION_MAX_S,
+    WAIT_MAX_S,
     add_gain_options,
     damping,
-    finite_float,
     fraction_open,
     in_range,
-    nonnegative_float,
-    nonnegative_int,
-    positive_float,
+    lcm_url,
+    output_dir,
+    seed,
+    sim_duration,
     stiffness,
+    wait_s,
 )
+from sparc_quad.cli.errors import BadInput, bad_input
 from sparc_quad.cli.output import atomic_dir, moved
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
 from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES, engine_error
 from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
 from sparc_quad.sim.imu import ImuConfig
+from spine_module.messages import channels
 
 log = logging.getLogger(__name__)
+
+FREQUENCY_MAX_HZ = 10.0  # strides per second; a stance of < 25 control ticks cannot shape its force
+SPEED_MAX_M_S = 10.0  # far beyond any quadruped of this size; `check_gait` below is the real limit
+STRIDE_MAX_M = 2.0
+BODY_KP_MAX = 1000.0  # N*m/rad: 0.01 rad of attitude error would already ask 10 N*m
+BODY_KD_MAX = 100.0  # N*m*s/rad
+IMU_NOISE_MAX_RAD = 1.0
+IMU_DELAY_MAX_STEPS = 1000  # 1 s at 1 kHz
+SPEED_SHORTFALL = 0.75  # mean speed below this fraction of the target: the gait did not reach it
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,27 +55,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     g, sg, imu = BoundParams(), SineBoundParams(), ImuConfig()
     add_gain_options(p)
-    p.add_argument("--duration", type=positive_float, default=10.0,
-                   help="simulated time, s (default %(default)s)")
-    p.add_argument("--speed", type=nonnegative_float, default=g.speed_m_s,
-                   help="target forward speed, m/s (default %(default)s)")
+    p.add_argument("--duration", type=sim_duration, default=10.0,
+                   help=f"simulated time, s, at most {SIM_DURATION_MAX_S:g} (the log is kept in memory)")
+    p.add_argument("--speed", type=in_range(0.0, SPEED_MAX_M_S), default=g.speed_m_s,
+                   help="target forward speed, m/s; refused if its stance stride is beyond the legs' reach")
     p.add_argument("--gait", choices=["raibert", "sine"], default="raibert",
                    help="raibert: gait B, the Raibert-style bound (default); sine: gait A, the SPARC "
                         "authors' open-loop sine bound (sparc_quad/gaits/sine_bound.py)")
-    p.add_argument("--frequency", type=positive_float, default=None,
+    p.add_argument("--frequency", type=in_range(0.0, FREQUENCY_MAX_HZ, lo_open=True), default=None,
                    help=f"stride frequency, Hz (default {g.frequency_hz} raibert, {sg.frequency_hz} sine)")
-    p.add_argument("--stride", type=positive_float, default=None,
+    p.add_argument("--stride", type=in_range(0.0, STRIDE_MAX_M, lo_open=True), default=None,
                    help="stride length, m; sets the target speed to stride * frequency (overrides --speed)")
-    p.add_argument("--step-height", type=nonnegative_float, default=None,
+    p.add_argument("--step-height", type=in_range(0.0, g.height_m), default=None,
                    help=f"swing foot clearance, m (default {g.step_height_m} raibert, "
                         f"{sg.step_height_m} sine)")
-    p.add_argument("--step-length", type=nonnegative_float, default=sg.step_length_m,
-                   help="--gait sine: L, half the fore-aft foot excursion about the hip (x = L cos phi), m "
-                        "(default %(default)s)")
+    p.add_argument("--step-length", type=in_range(0.0, STRIDE_MAX_M), default=sg.step_length_m,
+                   help="--gait sine: L, half the fore-aft foot excursion about the hip (x = L cos phi), m")
     p.add_argument("--duty", type=fraction_open, default=None,
                    help="stance fraction of each leg pair (default: 0.5 at <= 0.3 m/s to 0.45 at >= 0.6 m/s)")
     p.add_argument("--slope", type=in_range(-math.pi / 2, math.pi / 2, lo_open=True, hi_open=True),
-                   default=0.0, help="ground slope, rad; > 0 uphill (default %(default)s)")
+                   default=0.0, help="ground slope, rad, in (-pi/2, pi/2); > 0 uphill")
     p.add_argument("--rigid-spine", action="store_true",
                    help="baseline: spine joints locked at the equilibrium arch (pybullet fixed constraints)")
     p.add_argument("--spine-variant", choices=["impedance", "passive", "rigid", "rigid-impedance"],
@@ -70,26 +82,28 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="impedance: motor-rendered (default); passive: an ideal spring-damper with the same "
                         "gains (no actuator work); rigid: locked joints (= --rigid-spine); rigid-impedance: "
                         "the controller at k = 1e4 N/m")
-    p.add_argument("--body-kp", type=nonnegative_float, default=g.body_kp,
+    p.add_argument("--body-kp", type=in_range(0.0, BODY_KP_MAX), default=g.body_kp,
                    help="stance attitude servo per body, N*m/rad (pushes against spine flexion; 0 = off)")
-    p.add_argument("--body-kd", type=nonnegative_float, default=g.body_kd, help="its damping, N*m*s/rad")
+    p.add_argument("--body-kd", type=in_range(0.0, BODY_KD_MAX), default=g.body_kd,
+                   help="its damping, N*m*s/rad")
     p.add_argument("--friction-comp", action="store_true",
                    help="enable the controller's friction compensation")
-    p.add_argument("--imu-noise", type=nonnegative_float, default=imu.q1_noise_rad,
-                   help="estimator q1 noise, rad")
-    p.add_argument("--imu-bias", type=finite_float, default=0.0, help="estimator q1 bias, rad")
-    p.add_argument("--imu-delay", type=nonnegative_int, default=imu.delay_steps,
+    p.add_argument("--imu-noise", type=in_range(0.0, IMU_NOISE_MAX_RAD), default=imu.q1_noise_rad,
+                   help="estimator q1 noise (standard deviation), rad")
+    p.add_argument("--imu-bias", type=in_range(-math.pi, math.pi), default=0.0,
+                   help="estimator q1 bias, rad")
+    p.add_argument("--imu-delay", type=in_range(0, IMU_DELAY_MAX_STEPS, kind=int), default=imu.delay_steps,
                    help="estimator delay, 1 ms steps")
-    p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of every random number in the run")
+    p.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run")
     p.add_argument("--host", choices=HOSTS, default=DEFAULT_HOST,
-                   help="host robot (robots/sparc_<host>, robots/spined_dog; default: %(default)s)")
+                   help="host robot (robots/sparc_<host>, robots/spined_dog)")
     p.add_argument("--engine", choices=list(ENGINES), default=DEFAULT_ENGINE,
-                   help="physics engine (mujoco needs the [mujoco] extra; default: %(default)s)")
+                   help="physics engine (mujoco needs the [mujoco] extra)")
     p.add_argument("--spine", choices=["direct", "node"], default="direct",
                    help="node: the spine node in this process on the in-process bus (the reference: soft "
                         "start, limits, watchdogs, CyberGear-quantised feedback); direct: the same "
                         "controller called in process with the node's limit damping and torque clamp, "
-                        "without soft start, watchdogs or quantisation (fastest; default: %(default)s)")
+                        "without soft start, watchdogs or quantisation (fastest)")
     p.add_argument("--backend", choices=["auto", "numba", "python"], default="auto",
                    help="per-step code: numba (compiled spine step and bound controller; ~0.7 s CPU to load "
                         "per process), python (the reference paths), auto (default): numba for runs of "
@@ -97,12 +111,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lcm", action="store_true",
                    help="the spine node is another process (`sparc-quad spine-node --motors lcm`), over LCM; "
                         "lockstep unless --realtime")
-    p.add_argument("--lcm-url", default="", help="LCM URL (default: LCM's default)")
-    p.add_argument("--wait-node", type=positive_float, default=30.0,
-                   help="--lcm: wait this long (wall s) for the node's first heartbeat "
-                        "(default: %(default)s)")
+    p.add_argument("--lcm-url", type=lcm_url, default=channels.DEFAULT_URL,
+                   help="--lcm: LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
+    p.add_argument("--wait-node", type=wait_s, default=30.0,
+                   help=f"--lcm: wait this long (wall s, up to {WAIT_MAX_S:g}) for the node's first "
+                        "heartbeat")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    p.add_argument("--out", type=Path, default=Path("out/bound"), help="output folder (default %(default)s)")
+    p.add_argument("--out", type=output_dir, default=Path("out/bound"), help="output folder")
     p.add_argument("--video", action="store_true", help="also render bound.gif (pybullet ER_TINY_RENDERER)")
     p.add_argument("--no-plots", action="store_true",
                    help="write metrics.json and timeseries.csv only (no PNGs; matplotlib is not imported)")
@@ -153,23 +168,45 @@ def config_from_args(args: argparse.Namespace):
     )
 
 
+def check_gait(cfg) -> None:
+    """BadInput for a gait the legs cannot walk: the sine bound's own check of its foot targets, and for
+    the Raibert bound a stance longer than the legs can sweep at the gait's hip height (the target speed
+    is then out of reach, whatever the controller does)."""
+    from sparc_quad.gaits.bound import BoundParams
+    from sparc_quad.sim.hosts import host_files
+
+    legs = json.loads(host_files(cfg.world.host).meta.read_text())["legs"].values()
+    reach = min(leg["thigh_m"] + leg["shank_m"] for leg in legs)
+    gait = cfg.gait
+    if not isinstance(gait, BoundParams):
+        with bad_input(ValueError, prefix="--gait sine: "):
+            gait.validate(reach)
+        return
+    if reach <= gait.height_m:
+        return
+    sweep_max = 2.0 * math.sqrt(reach**2 - gait.height_m**2)  # foot travel under the hip in one stance
+    duty = gait.duty_at(gait.speed_m_s)
+    sweep = gait.speed_m_s * duty / gait.frequency_hz
+    if sweep > sweep_max:
+        raise BadInput(f"--speed {gait.speed_m_s:g} m/s at {gait.frequency_hz:g} Hz needs a stance stride of "
+                       f"{sweep:.3f} m; the {cfg.world.host} legs ({reach:.3f} m at hip height "
+                       f"{gait.height_m:g} m) sweep at most {sweep_max:.3f} m: at most about "
+                       f"{sweep_max * gait.frequency_hz / duty:.2f} m/s")
+
+
 def run(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bound_run import run_bound, write_outputs
 
     if args.video and args.no_plots:
-        print("--video renders bound.gif with matplotlib: it cannot be combined with --no-plots",
-              file=sys.stderr)
-        return 2
+        raise BadInput("--video renders bound.gif with matplotlib: it cannot be combined with --no-plots")
     missing = engine_error(args.engine)
     if missing is not None:
-        print(f"sparc-quad bound: {missing}", file=sys.stderr)
-        return 2
+        raise BadInput(missing)
     cfg = config_from_args(args)
+    check_gait(cfg)
     spine = None
     if (args.rigid_spine or args.spine_variant != "impedance") and (args.lcm or args.spine == "node"):
-        print("--rigid-spine / --spine-variant other than impedance do not use the spine node",
-              file=sys.stderr)
-        return 2
+        raise BadInput("--rigid-spine / --spine-variant other than impedance do not use the spine node")
     if args.lcm:
         from sparc_quad.robot_side.quad import NodeSpine
 
@@ -178,9 +215,8 @@ def run(args: argparse.Namespace) -> int:
                                        lockstep=not args.realtime, wait_node_s=args.wait_node,
                                        schedule=cfg.spine_schedule, torso_accel=cfg.spine_torso_accel)
         except TimeoutError as exc:
-            print(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` first",
-                  file=sys.stderr)
-            return 2
+            raise BadInput(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` "
+                           "first") from exc
     elif args.spine == "node":
         from sparc_quad.robot_side.quad import NodeSpine
 
@@ -216,6 +252,11 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(summary, indent=2, default=float))
     if not m.get("window_ok", False):
         print(f"warning: {m.get('warning', 'steady window too short')} (metrics.json has window_ok: false)")
+    mean, target = m.get("speed_m_s"), getattr(cfg.gait, "speed_m_s", None)
+    short = mean is not None and bool(target) and mean < SPEED_SHORTFALL * target
+    if m.get("window_ok") and not m["fell"] and short:
+        print(f"warning: mean speed {mean:.3f} m/s is below {SPEED_SHORTFALL:g} x the target {target:g} m/s: "
+              "the gait did not reach the commanded speed")
     for path in paths:
         print(f"wrote {path}")
     return 1 if m["fell"] else 0

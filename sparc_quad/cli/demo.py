@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from sparc_quad.cli import bench
+from sparc_quad.cli.args import output_dir
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -13,7 +14,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "three bench experiments (reduced size)",
                        description="Runs `bound --duration 5` into OUT/bound and `bench all --quick` into "
                        "OUT/bench. Units: SI (spine k_x 500 N/m, d_x 20 N*s/m; m, N, s).")
-    p.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder (default: %(default)s)")
+    p.add_argument("--out", type=output_dir, default=Path("out/demo"), help="output folder")
     p.add_argument("--full", action="store_true", help="20 s bound and full-size experiments (minutes)")
     p.set_defaults(func=run, extra="sim")
 

@@ -1,24 +1,28 @@
 """Outputs written whole or not at all, so an interrupt (Ctrl-C) or a failure never leaves a partial result
-beside (or over) the previous one.
+in `--out`, in place of or mixed with the previous one.
 
 A command writes into a temporary sibling of its `--out` folder (same parent, so relative paths written
 inside stay valid and every rename stays on one file system). When the command completes, each file it
 wrote is renamed into `--out` (os.replace: a reader sees the old file or the new one, never half of one)
-with SIGINT and SIGTERM held back, so an interrupt cannot split the set. On any exception,
-KeyboardInterrupt included, the sibling is removed and `--out` is left as it was. Files in `--out` that the
-command does not write (another program's logs, another experiment's results) are left alone: `--out` is
-not swapped as a whole, so a process still writing into it loses nothing.
+with SIGINT and SIGTERM held back, so an interrupt cannot split the set. On an interrupt or bad input
+(`errors.BadInput`) the sibling is removed and `--out` is left as it was; on any other exception (a bug) it
+is kept, renamed `<out>.partial-<time>`, for diagnosis, and `--out` is still left as it was. Files in
+`--out` that the command does not write (another program's logs, another experiment's results) are left
+alone: `--out` is not swapped as a whole, so a process still writing into it loses nothing.
 """
 
 from __future__ import annotations
 
 import contextlib
+import datetime
 import os
 import shutil
 import signal
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+
+from sparc_quad.cli.errors import BadInput
 
 _HELD = {signal.SIGINT, signal.SIGTERM}
 
@@ -43,14 +47,32 @@ def atomic_dir(out: Path) -> Iterator[Path]:
     success, and it is removed either way."""
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out} exists and is not a folder")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+        raise BadInput(f"--out {out} exists and is not a folder")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    except OSError as exc:
+        raise BadInput(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
     try:
         yield tmp
         _commit(tmp, out)
+    except Exception as exc:
+        if not isinstance(exc, BadInput):
+            exc.partial_outputs = _keep(tmp, out)  # type: ignore[attr-defined]
+        raise
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _keep(tmp: Path, out: Path) -> Path | None:
+    """The partial outputs of a failed run, renamed beside `out` (None if they could not be)."""
+    stamp = datetime.datetime.now().strftime("%Y%m%dT%H%M%S")
+    kept = out.parent / f"{out.name}.partial-{stamp}-{os.getpid()}"
+    try:
+        tmp.rename(kept)
+    except OSError:
+        return None
+    return kept
 
 
 def moved(paths: list[Path], tmp: Path, out: Path) -> list[Path]:

@@ -7,15 +7,43 @@ import signal
 import sys
 from pathlib import Path
 
+from sparc_quad.cli.args import in_range, output_dir
+from sparc_quad.cli.errors import BadInput
 
-def _positive_int(text: str) -> int:
+WORKERS_MAX = 256
+BOOTSTRAP_MAX = 100_000  # draws per seed; the report holds them all in memory
+SCHEDULER_SCHEMES = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
+
+
+def _spec_file(text: str) -> Path:
+    """A study spec: an existing UTF-8 text file (the TOML itself is checked by study.spec)."""
+    path = Path(text)
     try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
-    return v
+        path.read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise argparse.ArgumentTypeError(f"{path}: not a text file (a TOML spec is UTF-8 text)") from None
+    return path
+
+
+def _scheduler(text: str) -> str:
+    """A Dask scheduler address: SCHEME://HOST:PORT (e.g. tcp://10.0.0.5:8786) or HOST:PORT."""
+    scheme, sep, rest = text.rpartition("://") if "://" in text else ("tcp", "", text)
+    host, colon, port = rest.rpartition(":")
+    if (sep and scheme not in SCHEDULER_SCHEMES) or not colon or not host or not port.isdigit() \
+            or not 0 < int(port) < 65536:
+        raise argparse.ArgumentTypeError(
+            f"expected a Dask scheduler address SCHEME://HOST:PORT ({', '.join(SCHEDULER_SCHEMES)}), "
+            f"e.g. tcp://10.0.0.5:8786, got {text!r}")
+    return text
+
+
+def _study_dir(text: str) -> Path:
+    path = Path(text)
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{path}: no such folder (a folder written by `study run`)")
+    return path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,13 +62,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "DIR/trials.csv and DIR/summary.json. Exit 0 if all trials succeeded, 1 if any "
         "failed (their errors are in the records), 2 on bad input, 130 on Ctrl-C.",
     )
-    r.add_argument("spec", type=Path, metavar="SPEC.toml", help="study spec")
-    r.add_argument("--out", type=Path, required=True, metavar="DIR", help="study folder (created; resumable)")
-    r.add_argument(
-        "--workers", type=_positive_int, default=None, help="local worker processes (default: one per core)"
-    )
+    r.add_argument("spec", type=_spec_file, metavar="SPEC.toml", help="study spec")
+    r.add_argument("--out", type=output_dir, required=True, metavar="DIR",
+                   help="study folder (created; resumable)")
+    r.add_argument("--workers", type=in_range(1, WORKERS_MAX, kind=int), default=None,
+                   help=f"local worker processes, up to {WORKERS_MAX} (default: one per core)")
     r.add_argument(
         "--scheduler",
+        type=_scheduler,
         default=None,
         metavar="ADDRESS",
         help="run on an existing Dask distributed cluster, e.g. tcp://host:8786 (needs the [study] extra)",
@@ -59,20 +88,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     rep.add_argument(
         "dir",
-        type=Path,
+        type=_study_dir,
         nargs="+",
         metavar="DIR",
         help="folder(s) written by `study run`; several are reported as one study (then --out is required)",
     )
     rep.add_argument(
         "--out",
-        type=Path,
+        type=output_dir,
         default=None,
         metavar="REPORT_DIR",
-        help="where to write the report (default DIR/report)",
+        help="where to write the report (default: DIR/report)",
     )
-    rep.add_argument("--bootstrap", type=_positive_int, default=400,
-                     help="block-bootstrap draws per seed for the within-seed variance (default 400)")
+    rep.add_argument("--bootstrap", type=in_range(1, BOOTSTRAP_MAX, kind=int), default=400,
+                     help=f"block-bootstrap draws per seed for the within-seed variance, up to "
+                          f"{BOOTSTRAP_MAX}")
     rep.set_defaults(func=report)
 
 
@@ -84,22 +114,14 @@ def run(args: argparse.Namespace) -> int:
     try:
         spec = load_spec(args.spec)
     except SpecError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        raise BadInput(str(exc)) from exc
     if args.scheduler and args.workers:
-        print("error: --workers is for the local pool; a Dask cluster has its own workers", file=sys.stderr)
-        return 2
+        raise BadInput("--workers is for the local pool; a Dask cluster has its own workers")
     if args.scheduler:
         try:
             import dask.distributed  # noqa: F401
         except ImportError:
-            print(
-                "error: --scheduler needs Dask distributed: pip install 'sparc-quad[study]'", file=sys.stderr
-            )
-            return 2
-    if args.out.exists() and not args.out.is_dir():
-        print(f"error: --out {args.out} exists and is not a folder", file=sys.stderr)
-        return 2
+            raise BadInput("--scheduler needs Dask distributed: pip install 'sparc-quad[study]'") from None
 
     def interrupt(signum, frame):
         raise KeyboardInterrupt
@@ -115,8 +137,7 @@ def run(args: argparse.Namespace) -> int:
             progress=not args.no_progress,
         )
     except ExecutorUnavailable as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        raise BadInput(str(exc)) from exc
     except KeyboardInterrupt:
         print(
             f"interrupted; finished trials are kept in {args.out}/trials (rerun to resume)", file=sys.stderr
@@ -139,8 +160,7 @@ def _report(folder: Path | list[Path], n_boot: int, out: Path | None = None) -> 
     try:
         paths = write_report(folder, n_boot=n_boot, out=out)
     except ReportError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        raise BadInput(str(exc)) from exc
     for p in paths:
         print(f"wrote {p}")
     return 0
@@ -148,9 +168,5 @@ def _report(folder: Path | list[Path], n_boot: int, out: Path | None = None) -> 
 
 def report(args: argparse.Namespace) -> int:
     if len(args.dir) > 1 and args.out is None:
-        print("error: several study folders need --out REPORT_DIR", file=sys.stderr)
-        return 2
-    try:
-        return _report(args.dir, args.bootstrap, args.out)
-    except KeyboardInterrupt:
-        return 130
+        raise BadInput("several study folders need --out REPORT_DIR")
+    return _report(args.dir, args.bootstrap, args.out)

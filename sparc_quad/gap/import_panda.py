@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparc_quad.cli.args import in_range, output_dir
 from sparc_quad.gap.import_util import (
     LogImportError,
     decimate,
@@ -121,19 +122,32 @@ def convert(source: str | Path, out: str | Path, windows_s: Sequence[tuple[float
     return paths
 
 
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The importer's options (`sparc-quad gap import panda` and `python -m` this module)."""
+    p.add_argument("--source", type=Path, required=True,
+                   help="folder with the four exciting_traj_*.txt files (optionally .xz/.gz)")
+    p.add_argument("--out", type=output_dir, required=True,
+                   help="output folder for the trials and panda.urdf")
+    p.add_argument("--rate", type=in_range(0.0, 1e5, lo_open=True), default=1000.0,
+                   help="uniform resampling rate, Hz")
+    p.add_argument("--decimate", type=in_range(1, 1000, kind=int), default=1,
+                   help="decimation factor after resampling")
+    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
+                   help="time window in s (repeatable; default the whole 21 s log)")
+
+
+def run(args: argparse.Namespace) -> list[Path]:
+    """Import as the options say; LogImportError on a source that cannot be read."""
+    return convert(args.source, args.out, args.window or [(0.0, 21.0)], args.rate, args.decimate)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m sparc_quad.gap.import_panda",
                                 description=__doc__.split("\n")[0])
-    p.add_argument("--source", type=Path, required=True,
-                   help="folder with the four exciting_traj_*.txt files (optionally .xz/.gz)")
-    p.add_argument("--out", type=Path, required=True, help="output folder for the trials and panda.urdf")
-    p.add_argument("--rate", type=float, default=1000.0, help="uniform resampling rate, Hz (default 1000)")
-    p.add_argument("--decimate", type=int, default=1, help="decimation factor after resampling (default 1)")
-    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
-                   help="time window in s (repeatable; default the whole 21 s log)")
+    add_arguments(p)
     args = p.parse_args(argv)
     try:
-        paths = convert(args.source, args.out, args.window or [(0.0, 21.0)], args.rate, args.decimate)
+        paths = run(args)
     except LogImportError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparc_quad.cli.args import in_range, output_dir
 from sparc_quad.gap.import_util import (
     LogImportError,
     decimate,
@@ -135,19 +136,30 @@ def convert(source: str | Path, out: str | Path,
     return paths
 
 
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The importer's options (`sparc-quad gap import tx40` and `python -m` this module)."""
+    p.add_argument("--source", type=Path, required=True,
+                   help="folder with pos_read_data.csv and curr_data.csv (optionally .xz/.gz)")
+    p.add_argument("--out", type=output_dir, required=True, help="output folder for the trials")
+    p.add_argument("--urdf", type=Path, default=None, help=f"the TX40 URDF (default: SOURCE/../{URDF_NAME})")
+    p.add_argument("--decimate", type=in_range(1, 1000, kind=int), default=1,
+                   help="decimation factor (1: as recorded)")
+    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
+                   help="time window in s (repeatable; default the whole log)")
+
+
+def run(args: argparse.Namespace) -> list[Path]:
+    """Import as the options say; LogImportError on a source that cannot be read."""
+    return convert(args.source, args.out, args.window or [(0.0, 9.0)], args.decimate, args.urdf)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m sparc_quad.gap.import_tx40",
                                 description=__doc__.split("\n")[0])
-    p.add_argument("--source", type=Path, required=True,
-                   help="folder with pos_read_data.csv and curr_data.csv (optionally .xz/.gz)")
-    p.add_argument("--out", type=Path, required=True, help="output folder for the trials")
-    p.add_argument("--urdf", type=Path, default=None, help=f"the TX40 URDF (default: SOURCE/../{URDF_NAME})")
-    p.add_argument("--decimate", type=int, default=1, help="decimation factor (default 1: as recorded)")
-    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
-                   help="time window in s (repeatable; default the whole log)")
+    add_arguments(p)
     args = p.parse_args(argv)
     try:
-        paths = convert(args.source, args.out, args.window or [(0.0, 9.0)], args.decimate, args.urdf)
+        paths = run(args)
     except LogImportError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

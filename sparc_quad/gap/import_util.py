@@ -9,7 +9,6 @@ import os
 from pathlib import Path
 
 import numpy as np
-from scipy import signal
 
 
 class LogImportError(ValueError):
@@ -58,6 +57,8 @@ def decimate(x: np.ndarray, factor: int) -> np.ndarray:
     filter run forward-backward has a DC gain of 0.989, a 1.1 % error on every position."""
     if factor == 1:
         return x
+    from scipy import signal  # here, not at import: `sparc-quad gap import --help` loads no scipy
+
     return signal.resample_poly(x, 1, factor, axis=0, padtype="line")
 
 

@@ -1,7 +1,7 @@
 """Registry entry for `--motors inprocess`: the node and the pybullet bench spine in one process.
 
 The robot end of the link is driven by the caller (`sparc_quad.robot_side`); from the command line
-`spine-node --motors inprocess` runs the bench robot in the same process (see `sparc_quad.cli.node`).
+`spine-node --motors inprocess` runs the bench robot in the same process (see `sparc_quad.cli.spine_node`).
 """
 
 from __future__ import annotations

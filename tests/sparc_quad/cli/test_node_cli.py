@@ -71,15 +71,18 @@ def test_help_lists_both_commands(capsys):
     assert "spine-node" in text and "bench-robot" in text
 
 
-def test_spine_cmd_validates_before_sending(capsys, caplog):
-    assert main(["spine-cmd", "--lcm-url", "memq://", "--kx", "1e9"]) == 2
-    assert "SPARC_SPINE_COMMAND.k[0]" in caplog.text
+def test_spine_cmd_validates_before_sending(capsys):
+    with pytest.raises(SystemExit):  # a gain beyond the node's limit: refused while parsing
+        main(["spine-cmd", "--lcm-url", "memq://", "--kx", "1e9"])
+    assert "argument --kx" in capsys.readouterr().err
+    assert main(["spine-cmd", "--lcm-url", "memq://", "--x-d", "5", "0", "0"]) == 2  # the codec's range
+    assert "SPARC_SPINE_COMMAND.x_d[0]" in capsys.readouterr().err
     assert main(["spine-cmd", "--lcm-url", "memq://", "--mode", "estop"]) == 0
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1]) == {"sent": 1, "mode": "ESTOP"}
 
 
 def test_spine_echo_lines_decoded_and_rejected():
-    from sparc_quad.cli.node import echo_line
+    from sparc_quad.cli.spine_echo import echo_line
     from spine_module.buses.base import MotorCommand
     from spine_module.messages import SpineCommand, TorsoState, channels, codec
 

@@ -1,4 +1,4 @@
-"""The gap workflow on the synthetic 6-DoF arm (`gap synth-arm`: UR5, massless flange, Coulomb + viscous +
+"""The gap workflow on the synthetic 6-DoF arm (`gap synth --arm`: UR5, massless flange, Coulomb + viscous +
 rotor inertia on every motor, coupled wrist, link inertial errors 10-30 %, measured currents, 5 kHz):
 friction and rotor inertia are named per joint, never saturation, deadband or delay (the torque is
 measured), and the held-out residual falls far below the nominal model's.

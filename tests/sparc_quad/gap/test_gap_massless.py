@@ -72,6 +72,6 @@ def test_singular_replay_is_a_numerical_failure(urdf, tmp_path, monkeypatch, cap
     monkeypatch.setattr(R.Robot, "massless_joints", lambda self, armature=None: [])  # check bypassed
     with pytest.raises(NumericalError, match="replay"):
         run(res["trials"], tmp_path / "out", plots=False)
-    rc = main(["gap", *map(str, res["trials"]), "--out", str(tmp_path / "out2"), "--no-plots"])
+    rc = main(["gap", "run", *map(str, res["trials"]), "--out", str(tmp_path / "out2"), "--no-plots"])
     assert rc == 1
     assert "numerical failure (not bad input)" in capsys.readouterr().err

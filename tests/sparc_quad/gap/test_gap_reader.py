@@ -145,7 +145,7 @@ def test_bad_input_named_and_exit_2(good, tmp_path, capsys, kind):
         load_trial(p)
     assert str(info.value).startswith(str(where)), info.value
     out = tmp_path / "out"
-    assert main(["gap", str(p), "--out", str(out), "--no-plots"]) == 2
+    assert main(["gap", "run", str(p), "--out", str(out), "--no-plots"]) == 2
     err = capsys.readouterr().err
     assert str(where) in err and "Traceback" not in err
     assert not out.exists()  # nothing half-written
@@ -193,7 +193,7 @@ def test_lcm_event_length_0x7fffffff_is_an_error_not_a_segfault(tmp_path, capsys
     with pytest.raises(TrialError, match="data length 2147483647") as info:
         load_lcm_log(p)
     assert str(info.value).startswith(str(p))
-    assert main(["gap", str(p), "--out", str(tmp_path / "out")]) == 2
+    assert main(["gap", "run", str(p), "--out", str(tmp_path / "out")]) == 2
     assert "bad.lcm" in capsys.readouterr().err
 
 

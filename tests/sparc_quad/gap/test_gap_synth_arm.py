@@ -1,4 +1,4 @@
-"""`gap synth-arm`: the synthetic 6-DoF arm obeys its own dynamics, read back through the project's reader.
+"""`gap synth --arm`: the synthetic 6-DoF arm obeys its own dynamics, read back through the project's reader.
 
 The check is independent of the simulator's code path: pinocchio's RNEA on the link-scaled URDF model plus
 the named hidden effects (truth.json) applied to the written states must reproduce the written (measured)
@@ -122,13 +122,13 @@ def test_uncoupled_joint_side_effects_are_the_libraries(tmp_path):
 
 def test_cli_synth_arm(tmp_path, capsys):
     out = tmp_path / "arm"
-    assert cli_main(["gap", "synth-arm", "--out", str(out), "--trials-n", "1", "--periods", "1",
+    assert cli_main(["gap", "synth", "--arm", "--out", str(out), "--trials-n", "1", "--periods", "1",
                      "--period", "0.1", "--no-dq"]) == 0
     trial = load_trial(out / "arm_00.csv")  # no dq columns: the reader differentiates q
     assert trial.meta.get("dq_source") and len(trial.t) == 500
     assert (out / "truth.json").exists()
     try:  # refused while parsing (SystemExit) or by the generator (return code): exit 2 either way
-        code = cli_main(["gap", "synth-arm", "--out", str(tmp_path / "bad"), "--period", "0"])
+        code = cli_main(["gap", "synth", "--arm", "--out", str(tmp_path / "bad"), "--period", "0"])
     except SystemExit as exc:
         code = exc.code
     assert code == 2

@@ -88,7 +88,7 @@ def test_cli_synth_then_gap(tmp_path, capsys):
     trials = sorted(str(p) for p in d.glob("trial_*.csv"))
     assert len(trials) == 3
     out = tmp_path / "out"
-    assert main(["gap", *trials, "--out", str(out)]) == 0
+    assert main(["gap", "run", *trials, "--out", str(out)]) == 0
     rep = json.loads((out / "report.json").read_text())
     for key in ("effects", "ambiguous", "verdict", "noise_floor", "gap_before", "gap_after"):
         assert key in rep
@@ -105,7 +105,7 @@ def test_cli_synth_then_gap(tmp_path, capsys):
     bad.write_text(Path(trials[0]).read_text().replace("q_q3", "q_qZ", 1))
     bad.with_suffix(".json").write_text(Path(trials[0]).with_suffix(".json").read_text()
                                         .replace('"urdf": "', f'"urdf": "{d}/'))
-    assert main(["gap", str(bad), "--out", str(out)]) == 2
+    assert main(["gap", "run", str(bad), "--out", str(out)]) == 2
     assert "bad.csv" in capsys.readouterr().err
 
 

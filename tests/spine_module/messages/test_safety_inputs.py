@@ -51,7 +51,7 @@ def test_spine_echo_survives_bad_packets(monkeypatch, capsys):
     """One out-of-range state packet between two good ones: three lines, the middle one rejected."""
     import lcm
 
-    from sparc_quad.cli.node import run_spine_echo
+    from sparc_quad.cli.spine_echo import run as run_spine_echo
 
     good = codec.encode_state(SpineState(seq=1))
     packets = [(channels.SPINE_STATE, good), (channels.SPINE_STATE, _state_bytes(mode=42)),

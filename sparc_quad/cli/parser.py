@@ -1,0 +1,97 @@
+"""The argument parser every `sparc-quad` command is built with: one help style, its own usage on a typo.
+
+- help: every default shown one way, "(default: 10.0)", with numbers as the user types them (no
+  `np.float64(...)` reprs; lists joined as they are entered); options whose default is "off" (False, None)
+  show none unless their help says what the default means.
+- typos: a subcommand reports unknown options itself, with its own usage line (argparse hands them up to
+  the top-level parser, which prints the top-level usage).
+- negative numbers: "-5,300" or "-0.01" after an option is a value, not an unknown option (argparse only
+  takes "-5" and "-.5" as numbers).
+"""
+
+from __future__ import annotations
+
+import argparse
+import numbers
+import re
+from collections.abc import Sequence
+from pathlib import PurePath
+
+_DEFAULT_IN_HELP = re.compile(r"\(default:? ")
+_LOOSE_DEFAULT = re.compile(r"\(default %\(default\)s\)")
+
+
+def show(value: object, sep: str = ",") -> str:
+    """A default as the user would type it."""
+    if isinstance(value, bool) or value is None:
+        return str(value)
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        return str(float(value))
+    if isinstance(value, PurePath):
+        return str(value)
+    if isinstance(value, (list, tuple)):
+        return sep.join(show(v) for v in value)
+    return str(value)
+
+
+class Formatter(argparse.HelpFormatter):
+    """"(default: X)" on every option with a default, X formatted by `show`."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = _LOOSE_DEFAULT.sub("(default: %(default)s)", action.help or "")
+        if "%(default)" in text or _DEFAULT_IN_HELP.search(text):
+            return text
+        default = action.default
+        if default is None or default is False or default is argparse.SUPPRESS or not action.option_strings:
+            return text
+        if isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
+            return text
+        return f"{text} (default: %(default)s)".strip()
+
+    def _expand_help(self, action: argparse.Action) -> str:
+        sep = " " if isinstance(action.nargs, int) or action.nargs in ("+", "*") else ","
+        params = {k: v for k, v in dict(vars(action), prog=self._prog).items() if v is not argparse.SUPPRESS}
+        for name, value in list(params.items()):
+            if hasattr(value, "__name__"):
+                params[name] = value.__name__
+        if params.get("choices") is not None:
+            params["choices"] = ", ".join(map(str, params["choices"]))
+        if "default" in params:
+            params["default"] = show(params["default"], sep)
+        return self._get_help_string(action) % params
+
+
+class RawDescriptionFormatter(Formatter, argparse.RawDescriptionHelpFormatter):
+    """The same, with the description printed as written (paragraphs, examples)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """The top-level parser (and, through `SubParser`, every subcommand's)."""
+
+    is_sub = False
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("formatter_class", Formatter)
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
+
+    def add_subparsers(self, **kwargs):  # type: ignore[override]
+        kwargs.setdefault("parser_class", SubParser)
+        return super().add_subparsers(**kwargs)
+
+    def parse_known_args(self, args: Sequence[str] | None = None, namespace=None):  # type: ignore[override]
+        ns, extras = super().parse_known_args(args, namespace)
+        if self.is_sub and extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return ns, extras
+
+
+class SubParser(Parser):
+    is_sub = True
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        # the innermost subcommand's defaults win: `gap synth` for messages and log names
+        self.set_defaults(command_name=self.prog.removeprefix("sparc-quad "))

@@ -1,0 +1,189 @@
+"""`sparc-quad spine-node`: the 1 kHz spine node (motors via a bus backend, LCM interface).
+
+    sparc-quad spine-node --motors lcm --lcm-url URL --clock lockstep
+    sparc-quad spine-node --motors can --can-channel can0 --no-heartbeat --duration 5
+
+It speaks the channels documented in docs (spine node and LCM interface).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+
+from sparc_quad.cli.args import (
+    NODE_RATE_MIN_HZ,
+    SIM_DURATION_MAX_S,
+    add_can_options,
+    can_options,
+    in_range,
+    lcm_url,
+    node_rate,
+    nonnegative_int,
+    output_file,
+    wait_s,
+    wall_duration,
+)
+from sparc_quad.cli.errors import BadInput
+from sparc_quad.cli.experiment import add_experiment_args, plant, script
+from sparc_quad.cli.signals import stop_on_signals
+from spine_module import params as P
+from spine_module.buses import registry
+from spine_module.buses.base import MotorBusError
+from spine_module.messages import channels
+from spine_module.safety import SafetyConfig
+
+log = logging.getLogger("sparc_quad.cli.spine_node")
+
+SOFT_START_MAX_S = 10.0  # a longer ramp leaves the spine soft for most of a run: a typo, not a setting
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("spine-node", help="run the spine node: motors via a bus backend, LCM interface",
+                       description="The 1 kHz spine node: reads motor feedback from --motors, torso state "
+                                   "and commands from LCM, runs the controller and the safety logic, sends "
+                                   "torques, publishes SPARC_SPINE_STATE and a heartbeat.")
+    p.add_argument("--motors", default="lcm", choices=sorted(registry.BACKENDS),
+                   help="motor bus backend (inprocess runs the bench robot in this process, in lockstep)")
+    p.add_argument("--lcm-url", type=lcm_url, default=channels.DEFAULT_URL,
+                   help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
+    p.add_argument("--rate", type=node_rate, default=P.CONTROL_RATE_HZ,
+                   help=f"control rate, Hz, {NODE_RATE_MIN_HZ:g}..{P.CONTROL_RATE_HZ:g}")
+    p.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime",
+                   help="realtime: fixed-rate loop; lockstep: one step per motor feedback tick")
+    p.add_argument("--duration", type=wall_duration, default=None,
+                   help="stop after this many seconds of node time (default: until Ctrl-C; inprocess: "
+                        f"the script's, at most {SIM_DURATION_MAX_S:g} s)")
+    p.add_argument("--idle-timeout", type=wait_s, default=5.0,
+                   help="lockstep: stop after this much wall time without motor feedback once the robot "
+                        "has been heard (before: 120 s, for a robot slow to start), s")
+    p.add_argument("--no-heartbeat", action="store_true",
+                   help="do not require the robot side's heartbeat (bench use without a PMU-like peer)")
+    p.add_argument("--soft-start", type=in_range(0.0, SOFT_START_MAX_S), default=P.SAFETY.soft_start_s,
+                   help=f"gain ramp-in time on entering impedance/PD mode, s, 0..{SOFT_START_MAX_S:g}")
+    p.add_argument("--state-every", type=in_range(1, 1000, kind=int), default=1,
+                   help="publish spine state every N ticks")
+    p.add_argument("--summary", type=output_file(), default=None, metavar="PATH",
+                   help="write a JSON summary of the run here (checked before the run starts)")
+    rt = p.add_argument_group("real time (torso computer; see docs 'Running on a PREEMPT_RT kernel')")
+    rt.add_argument("--cpu", type=nonnegative_int, default=None,  # realtime.apply checks that it exists
+                    help="pin the node to this CPU (isolate it with isolcpus=N on the kernel command line)")
+    rt.add_argument("--rt-priority", type=in_range(1, 99, kind=int), default=None,
+                    help="run under SCHED_FIFO at this priority, 1..99 (needs root, CAP_SYS_NICE or rtprio)")
+    rt.add_argument("--lock-memory", action="store_true",
+                    help="lock the process's memory (mlockall) so no page fault stalls a tick; best effort")
+    add_can_options(p)
+    add_experiment_args(p)
+    p.set_defaults(func=run)
+
+
+def _node_config(args: argparse.Namespace):
+    from spine_module.node import NodeConfig
+
+    return NodeConfig(rate_hz=args.rate, state_every=args.state_every,
+                      safety=SafetyConfig(soft_start_s=args.soft_start,
+                                          heartbeat_required=not args.no_heartbeat))
+
+
+def _bus_options(args: argparse.Namespace) -> dict[str, object]:
+    """The chosen backend's options as keyword arguments (see spine_module.buses.registry)."""
+    if args.motors == "can":
+        return can_options(args)
+    if args.motors == "lcm":
+        return {"url": args.lcm_url}
+    return {}
+
+
+def _make_bus(args: argparse.Namespace, lc):
+    if args.motors != "can":
+        try:
+            return registry.make_bus(args.motors, lc=lc, **_bus_options(args))
+        except ValueError as exc:
+            raise BadInput(str(exc)) from exc
+    from sparc_quad.cli.can_open import bus_open_error, open_errors
+    from spine_module.buses.cybergear.config import ConfigError
+
+    try:
+        return registry.make_bus("can", lc=lc, **_bus_options(args))
+    except ConfigError as exc:
+        raise BadInput(str(exc)) from exc
+    except open_errors() as exc:
+        raise bus_open_error(exc, args.can_interface, args.can_channel) from exc
+
+
+def run(args: argparse.Namespace) -> int:
+    import lcm
+
+    from spine_module.node import Controllers, LcmNodeIO, SpineNode, realtime, run_lockstep, run_realtime
+
+    try:
+        rt_done = realtime.apply(realtime.RtOptions(cpu=args.cpu, rt_priority=args.rt_priority,
+                                                    lock_memory=args.lock_memory))
+        for line in rt_done:
+            log.log(logging.WARNING if " not " in line else logging.INFO, "spine-node: %s", line)
+    except realtime.RtSetupError as exc:
+        raise BadInput(str(exc)) from exc
+    if args.motors == "inprocess":
+        return _run_inprocess(args)
+    try:
+        lc = lcm.LCM(args.lcm_url)
+    except RuntimeError as exc:
+        raise BadInput(f"cannot open LCM at {args.lcm_url!r} (a multicast route is needed, see docs): "
+                       f"{exc}") from exc
+    bus = _make_bus(args, lc)
+    io = LcmNodeIO(lc)
+    node = SpineNode(Controllers.default(), bus, io, _node_config(args))
+    # before start(): a full collection holds the interpreter for tens of ms, during which nothing could
+    # feed the motors that start() enabled (their CAN timeout is 50 ms)
+    rt_done.append(realtime.freeze_startup_objects())
+    try:
+        bus.start()
+    except MotorBusError as exc:  # e.g. a motor that did not answer: say which, stop the others, exit
+        log.error("motor bus start-up failed: %s", exc)
+        bus.shutdown()
+        io.close()
+        return 1
+    log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
+    try:
+        with stop_on_signals() as stop:
+            if args.clock == "lockstep":
+                res = run_lockstep(node, args.duration, stop, idle_timeout_s=args.idle_timeout)
+            else:
+                res = run_realtime(node, args.duration, stop)
+    finally:
+        bus.shutdown()
+        io.close()
+    summary = {"ticks": res.ticks, "elapsed_wall_s": res.elapsed_wall_s,
+               "achieved_rate_hz": res.achieved_rate_hz,
+               "jitter_max_s": res.jitter_max_s, "overruns": res.overruns,
+               "period": node.stats.histogram.summary(), "realtime": rt_done, "rejected": node.rejected_count,
+               "rejected_by_channel": io.inbox.rejected,
+               "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
+               "repeated_ticks": node.repeated_ticks,
+               "bus_faults": list(getattr(bus, "latched_faults", [])),  # latched in the motor backend
+               # messages superseded by a newer one before the node looked (a flood shows here)
+               "dropped": {**io.inbox.dropped, **({"SPARC_MOTOR_FEEDBACK": bus.dropped}
+                                                  if hasattr(bus, "dropped") else {})}}
+    print(json.dumps(summary))
+    if args.summary is not None:
+        try:
+            args.summary.parent.mkdir(parents=True, exist_ok=True)
+            args.summary.write_text(json.dumps(summary, indent=2))
+        except OSError as exc:  # checked at start; it changed during the run (the summary is printed above)
+            raise BadInput(f"--summary {args.summary}: {exc.strerror or exc}") from exc
+    return stop.exit_code()
+
+
+def _run_inprocess(args: argparse.Namespace) -> int:
+    from sparc_quad.experiments.stats import stiffness_from_states
+    from sparc_quad.robot_side.bench import run_inprocess
+
+    if args.clock != "lockstep":
+        log.info("--motors inprocess always runs in lockstep (robot and node in one thread)")
+    robot, states = run_inprocess(script(args), _node_config(args), plant=plant(args), seed=args.seed)
+    out = {"ticks": robot.k, "final_x": [float(v) for v in states[-1].x] if states else None}
+    if args.experiment == "static" and states:
+        out["k_hat_n_m"] = stiffness_from_states(states)
+    print(json.dumps(out))
+    return 0
