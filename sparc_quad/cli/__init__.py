@@ -70,12 +70,19 @@ def _interrupted(command: str) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:  # Ctrl-C while the command modules import (numpy, pinocchio): no traceback either
         from sparc_quad.cli.gap import legacy_argv
 
-        args = build_parser().parse_args(legacy_argv(list(sys.argv[1:] if argv is None else argv)))
+        args = build_parser().parse_args(legacy_argv(argv))
     except KeyboardInterrupt:
         return _interrupted("")
+    except Exception as exc:  # a command module that does not import or register: a bug
+        msg = missing_extra(exc, None) if isinstance(exc, ModuleNotFoundError) else None
+        if msg is not None:
+            print(f"sparc-quad: {msg}", file=sys.stderr)
+            return 2
+        return internal_error("", exc, None, "-v" in argv or "--verbose" in argv)
     name = getattr(args, "command_name", args.command)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s: %(message)s")

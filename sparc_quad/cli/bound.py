@@ -63,11 +63,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="raibert: gait B, the Raibert-style bound (default); sine: gait A, the SPARC "
                         "authors' open-loop sine bound (sparc_quad/gaits/sine_bound.py)")
     p.add_argument("--frequency", type=in_range(0.0, FREQUENCY_MAX_HZ, lo_open=True), default=None,
-                   help=f"stride frequency, Hz (default {g.frequency_hz} raibert, {sg.frequency_hz} sine)")
+                   help=f"stride frequency, Hz (default: {g.frequency_hz} raibert, {sg.frequency_hz} sine)")
     p.add_argument("--stride", type=in_range(0.0, STRIDE_MAX_M, lo_open=True), default=None,
                    help="stride length, m; sets the target speed to stride * frequency (overrides --speed)")
     p.add_argument("--step-height", type=in_range(0.0, g.height_m), default=None,
-                   help=f"swing foot clearance, m (default {g.step_height_m} raibert, "
+                   help=f"swing foot clearance, m (default: {g.step_height_m} raibert, "
                         f"{sg.step_height_m} sine)")
     p.add_argument("--step-length", type=in_range(0.0, STRIDE_MAX_M), default=sg.step_length_m,
                    help="--gait sine: L, half the fore-aft foot excursion about the hip (x = L cos phi), m")

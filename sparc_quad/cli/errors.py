@@ -51,7 +51,7 @@ def internal_error(command: str, exc: BaseException, args: object, verbose: bool
         sys.stderr.write(text)
     else:
         stamp = datetime.datetime.now().strftime("%Y%m%dT%H%M%S")
-        name = command.replace(" ", "-")
+        name = command.replace(" ", "-") or "cli"
         path = log_dir(args) / f"sparc-quad-{name}-internal-error-{stamp}-{os.getpid()}.log"
         try:
             path.write_text(f"sparc-quad {command}: argv {sys.argv!r}\n{text}")
@@ -60,6 +60,7 @@ def internal_error(command: str, exc: BaseException, args: object, verbose: bool
             sys.stderr.write(text)
     partial = getattr(exc, "partial_outputs", None)
     kept = f"; partial outputs kept in {partial}" if partial else ""
-    print(f"sparc-quad {command}: internal error (a bug, not bad input): {type(exc).__name__}: {exc}; "
-          f"{where}{kept}", file=sys.stderr)
+    who = " ".join(filter(None, ("sparc-quad", command)))
+    print(f"{who}: internal error (a bug, not bad input): {type(exc).__name__}: {exc}; {where}{kept}",
+          file=sys.stderr)
     return 1

@@ -108,7 +108,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     isub = i.add_subparsers(dest="robot", metavar="ROBOT", required=True)
     for name, mod in IMPORTERS.items():
         ip = isub.add_parser(name, help=mod.__doc__.split("\n")[0], description=mod.__doc__.split("\n")[0])
-        mod.add_arguments(ip)
+        checked = {"out": output_dir, "factor": in_range(1, 1000, kind=int)}
+        if name == "panda":  # resamples
+            checked["rate"] = in_range(0.0, 1e5, lo_open=True)
+        mod.add_arguments(ip, **checked)
         ip.set_defaults(func=run_import, importer=mod)
 
 

@@ -18,13 +18,12 @@ from __future__ import annotations
 import argparse
 import shutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.cli.args import in_range, output_dir
 from sparc_quad.gap.import_util import (
     LogImportError,
     decimate,
@@ -122,15 +121,17 @@ def convert(source: str | Path, out: str | Path, windows_s: Sequence[tuple[float
     return paths
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """The importer's options (`sparc-quad gap import panda` and `python -m` this module)."""
+def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
+                  rate: Callable[[str], float] = float, factor: Callable[[str], int] = int) -> None:
+    """The importer's options (`sparc-quad gap import panda` and `python -m` this module); `out`, `rate`,
+    `factor` parse --out, --rate, --decimate (the command line passes its checked types)."""
     p.add_argument("--source", type=Path, required=True,
                    help="folder with the four exciting_traj_*.txt files (optionally .xz/.gz)")
-    p.add_argument("--out", type=output_dir, required=True,
+    p.add_argument("--out", type=out, required=True,
                    help="output folder for the trials and panda.urdf")
-    p.add_argument("--rate", type=in_range(0.0, 1e5, lo_open=True), default=1000.0,
+    p.add_argument("--rate", type=rate, default=1000.0,
                    help="uniform resampling rate, Hz")
-    p.add_argument("--decimate", type=in_range(1, 1000, kind=int), default=1,
+    p.add_argument("--decimate", type=factor, default=1,
                    help="decimation factor after resampling")
     p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
                    help="time window in s (repeatable; default the whole 21 s log)")

@@ -24,12 +24,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from sparc_quad.cli.args import in_range, output_dir
 from sparc_quad.gap.import_util import (
     LogImportError,
     decimate,
@@ -136,13 +135,15 @@ def convert(source: str | Path, out: str | Path,
     return paths
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """The importer's options (`sparc-quad gap import tx40` and `python -m` this module)."""
+def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
+                  factor: Callable[[str], int] = int) -> None:
+    """The importer's options (`sparc-quad gap import tx40` and `python -m` this module); `out` and
+    `factor` parse --out and --decimate (the command line passes its checked types)."""
     p.add_argument("--source", type=Path, required=True,
                    help="folder with pos_read_data.csv and curr_data.csv (optionally .xz/.gz)")
-    p.add_argument("--out", type=output_dir, required=True, help="output folder for the trials")
+    p.add_argument("--out", type=out, required=True, help="output folder for the trials")
     p.add_argument("--urdf", type=Path, default=None, help=f"the TX40 URDF (default: SOURCE/../{URDF_NAME})")
-    p.add_argument("--decimate", type=in_range(1, 1000, kind=int), default=1,
+    p.add_argument("--decimate", type=factor, default=1,
                    help="decimation factor (1: as recorded)")
     p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
                    help="time window in s (repeatable; default the whole log)")
