@@ -88,14 +88,13 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=level, format="%(asctime)s %(name)s %(levelname)s: %(message)s")
     try:
         rc = int(args.func(args) or 0)
-        if rc == 130:  # a service stopped cleanly by Ctrl-C (signals.Stop)
-            _interrupted(name)
-        return rc
     except BadInput as exc:
         print(f"sparc-quad {name}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # outputs are written atomically (cli.output), so nothing half-written stays
-        return _interrupted(name)
+        # said below, once the exception and its frames are gone: a progress bar they held closes (and
+        # writes its last line) first, so "interrupted" is the last line
+        rc = 130
     except ModuleNotFoundError as exc:
         msg = missing_extra(exc, getattr(args, "extra", None))
         if msg is None:
@@ -104,6 +103,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except Exception as exc:
         return internal_error(name, exc, args, args.verbose > 0)
+    if rc == 130:  # Ctrl-C: KeyboardInterrupt, or a service stopped cleanly by it (signals.Stop)
+        _interrupted(name)
+    return rc
 
 
 
