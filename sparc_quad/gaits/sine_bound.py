@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sparc_quad.sim.control_clock import ControlClock
+from sparc_quad.sim.quadruped_world import planar_leg_ik
 
 LEGS = ("HL", "HR", "FL", "FR")
 PHASE_OFFSET = {"HL": 0.0, "HR": 0.0, "FL": math.pi, "FR": math.pi}
@@ -123,6 +124,10 @@ class SineBoundController:
         self.w = world
         self.dt = world.cfg.dt_s
         self.tau_limit = float(world.meta["leg_torque_limit_nm"])
+        self._x_sign = -1.0 if p.authors else p.direction  # the stride's sign in the robot's x
+        # per leg: its phase offset, side, joint slots in the world's jq / jdq, and IK constants
+        self._legs = tuple((k, PHASE_OFFSET[k], k[1], world.leg_joint_slots(k), world.leg_links(k))
+                           for k in LEGS)
         self.frequency_hz = p.frequency_hz
         self.stride_scale = {"L": 1.0, "R": 1.0}
         self._kp_yaw, self._kd_yaw = p.steering_gains
@@ -171,11 +176,13 @@ class SineBoundController:
     # ---- targets -------------------------------------------------------------------------------------
     def foot_target(self, leg: str, phase: float, amp: float = 1.0) -> tuple[float, float]:
         """Foot (x forward, z up) relative to the hip in the body frame, m."""
+        return self._foot_xz(phase + PHASE_OFFSET[leg], self.stride_scale[leg[1]], amp)
+
+    def _foot_xz(self, ph: float, scale: float, amp: float) -> tuple[float, float]:
+        """`foot_target` at the leg's own phase `ph` (rad) and its side's stride scale."""
         p = self.p
-        ph = phase + PHASE_OFFSET[leg]
         s = math.sin(ph)
-        sign = -1.0 if p.authors else p.direction
-        x = sign * amp * p.step_length_m * self.stride_scale[leg[1]] * math.cos(ph)
+        x = self._x_sign * amp * p.step_length_m * scale * math.cos(ph)
         z = -p.hip_depth_m + (amp * p.step_height_m * s if s > 0 else 0.0)
         return x, z
 
@@ -201,14 +208,17 @@ class SineBoundController:
 
     def _pd(self, phase: float, amp: float, running: bool) -> None:
         p, w, lim = self.p, self.w, self.tau_limit
-        for leg in LEGS:
-            st = w.leg_state(leg)
-            h_d, k_d = w.leg_ik(leg, *self.foot_target(leg, phase, amp)) if running else self._stand[leg]
-            tau_haa = -p.haa_kp_nm_rad * st.haa - p.haa_kd_nm_s_rad * st.dhaa
-            tau_h = p.kp_nm_rad * (h_d - st.hfe) - p.kd_nm_s_rad * st.dhfe
-            tau_k = p.kp_nm_rad * (k_d - st.kfe) - p.kd_nm_s_rad * st.dkfe
-            self.out[leg] = (max(-lim, min(lim, tau_haa)), max(-lim, min(lim, tau_h)),
-                             max(-lim, min(lim, tau_k)))
+        jq, jdq, scale, out = w.jq, w.jdq, self.stride_scale, self.out
+        kp, kd, haa_kp, haa_kd = p.kp_nm_rad, p.kd_nm_s_rad, p.haa_kp_nm_rad, p.haa_kd_nm_s_rad
+        for leg, offset, side, (i_haa, i_hfe, i_kfe), links in self._legs:  # world.leg_state's values
+            if running:
+                h_d, k_d = planar_leg_ik(*links, *self._foot_xz(phase + offset, scale[side], amp))
+            else:
+                h_d, k_d = self._stand[leg]
+            tau_haa = -haa_kp * jq[i_haa] - haa_kd * jdq[i_haa]
+            tau_h = kp * (h_d - jq[i_hfe]) - kd * jdq[i_hfe]
+            tau_k = kp * (k_d - jq[i_kfe]) - kd * jdq[i_kfe]
+            out[leg] = (max(-lim, min(lim, tau_haa)), max(-lim, min(lim, tau_h)), max(-lim, min(lim, tau_k)))
         self.stance_flags["hind"] = not running or math.sin(phase) <= 0.0
         self.stance_flags["front"] = not running or math.sin(phase + math.pi) <= 0.0
 

@@ -169,6 +169,11 @@ def run_bound(
             profile.setdefault(key, 0.0)
     clock = time.perf_counter
     c0 = c1 = 0.0
+    # the per-step calls bound once (the loop's cost is Python's)
+    estimate, spine_begin, spine_finish, gait_step = world.estimate, spine.begin, spine.finish, gait.step
+    set_torques, world_step, realtime = world.set_torques, world.step, cfg.realtime
+    flags = gait.stance_flags
+    ndarray = np.ndarray
     t0 = time.perf_counter()
     i = 0
     try:
@@ -178,19 +183,20 @@ def run_bound(
             if prof:
                 c0 = clock()
             t = world.t
-            est = world.estimate()
+            est = estimate()
             if prof:
                 c1 = clock()
                 profile["read"] += c1 - c0
-            spine.begin(est, world.q_spine, world.dq_spine, t)  # a node elsewhere works while the gait runs
+            q_sp, dq_sp = world.q_spine, world.dq_spine
+            spine_begin(est, q_sp, dq_sp, t)  # a node elsewhere works while the gait runs
             if prof:
                 c0 = clock()
                 profile["spine"] += c0 - c1
-            leg_tau = gait.step(t)
+            leg_tau = gait_step(t)
             if prof:
                 c1 = clock()
                 profile["gait"] += c1 - c0
-            tau_s = spine.finish()  # the gait does not read the spine: the order does not change the numbers
+            tau_s = spine_finish()  # the gait does not read the spine: the order does not change the numbers
             if prof:
                 c0 = c1
                 c1 = clock()
@@ -198,18 +204,19 @@ def run_bound(
             if latency:  # what the actuators apply now was commanded `latency` steps ago
                 pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
                 tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
-            tau_s = tau_s.tolist() if type(tau_s) is np.ndarray else tau_s  # plain floats: cheaper below
-            world.set_torques(tau_s, leg_tau)
+            tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
+            set_torques(tau_s, leg_tau)
+            task = spine.task_pose  # as of this step's begin: read once for the gait and the log
+            task = task.tolist() if type(task) is ndarray else task
             if observe_spine is not None:
-                observe_spine(t, float(spine.task_pose[0]))
+                observe_spine(t, float(task[0]))
             # log the state the torques were computed from: one row, one assignment; the power and peak
             # columns are filled from the logged torques and rates after the loop (metrics.derived_columns)
-            q_sp = world.q_spine
+            q1 = world.q1
             cf = world.contact_force
-            flags = gait.stance_flags
-            log[i] = (t, *world.base_pos, world.q1, world.dq1, est.q1, est.dq1, est.ddq1,
-                      world.q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *world.dq_spine, *tau_s,
-                      *spine.task_pose, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+            log[i] = (t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
+                      q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
+                      *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
                       flags["hind"], flags["front"], 0.0, 0.0, 0.0,
                       *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
                       gait_phase(), gait_frequency(), spine.energy_j)
@@ -218,11 +225,11 @@ def run_bound(
             if prof:
                 c0 = clock()
                 profile["log"] += c0 - c1
-            world.step()
+            world_step()
             if prof:
                 c1 = clock()
                 profile["physics"] += c1 - c0
-            if cfg.realtime:
+            if realtime:
                 lag = t0 + world.t - time.perf_counter()
                 if lag > 0:
                     time.sleep(lag)

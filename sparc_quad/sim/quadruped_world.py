@@ -48,7 +48,7 @@ class WorldConfig:
     gravity_m_s2: float = P.GRAVITY_M_S2
 
 
-@dataclass
+@dataclass(slots=True)
 class EstimatorOutput:
     q1: float
     dq1: float
@@ -153,6 +153,7 @@ class QuadWorld(ABC):
                 self.joint_index[v["kfe"]])
             for k, v in self.legs.items()
         }
+        self._leg_slots = {k: tuple(self.pos_in_movable[j] for j in v) for k, v in self.leg_idx.items()}
         # set_torques lists spine then legs (HAA, HFE, KFE each) then a 0 for any other joint;
         # _tau_order[p] = where in that list movable joint p is
         self._leg_keys = tuple(self.leg_idx)
@@ -165,17 +166,16 @@ class QuadWorld(ABC):
     # ---- set-up ---------------------------------------------------------------------------------------
     def leg_ik(self, key: str, x: float, z: float) -> tuple[float, float]:
         """Planar IK: HFE, KFE putting the foot centre at (x, z) from the hip in the body frame."""
+        return planar_leg_ik(*self.leg_links(key), x, z)
+
+    def leg_links(self, key: str) -> tuple[float, float, float]:
+        """(thigh m, shank m, knee sign) of leg `key`: `planar_leg_ik`'s constants."""
         leg = self.legs[key]
-        l1, l2, sgn = leg["thigh_m"], leg["shank_m"], leg["knee_sign"]
-        r2 = x * x + z * z
-        ck = max(-1.0, min(1.0, (r2 - l1 * l1 - l2 * l2) / (2 * l1 * l2)))
-        k = sgn * math.acos(ck)
-        # foot = -l1 (sin h, cos h) - l2 (sin(h+k), cos(h+k)); solve for h
-        a = l1 + l2 * math.cos(k)
-        b = l2 * math.sin(k)
-        # x = -(a sin h + b cos h), z = -(a cos h - b sin h)
-        h = math.atan2(-x, -z) - math.atan2(b, a)
-        return h, k
+        return leg["thigh_m"], leg["shank_m"], leg["knee_sign"]
+
+    def leg_joint_slots(self, key: str) -> tuple[int, int, int]:
+        """Where leg `key`'s HAA, HFE, KFE are in `jq` / `jdq` (an absent joint: the trailing 0)."""
+        return self._leg_slots[key]
 
     def set_start(self, q_spine: list[float] | None, legs: dict[str, tuple[float, float]],
                   frame_height_m: float | None) -> None:
@@ -226,11 +226,10 @@ class QuadWorld(ABC):
         """Refresh the true state (sim side) from the engine."""
 
     def leg_state(self, key: str) -> LegState:
-        pim = self.pos_in_movable
-        haa, hfe, kfe = self.leg_idx[key]
+        haa, hfe, kfe = self.leg_joint_slots(key)
         jq, jdq = self.jq, self.jdq
-        return LegState(key, jq[pim[hfe]], jq[pim[kfe]], jdq[pim[hfe]], jdq[pim[kfe]], jq[pim[haa]],
-                        jdq[pim[haa]], self.contact_force[key] > 0.0)
+        return LegState(key, jq[hfe], jq[kfe], jdq[hfe], jdq[kfe], jq[haa], jdq[haa],
+                        self.contact_force[key] > 0.0)
 
     def leg_rates(self) -> tuple[float, ...]:
         """The 12 leg joint rates HL, HR, FL, FR x (HAA, HFE, KFE), rad/s (0 for an absent joint)."""
@@ -275,6 +274,20 @@ class QuadWorld(ABC):
     def render(self, width: int = 480, height: int = 320) -> np.ndarray:
         """An RGB frame, camera following the robot."""
         raise NotImplementedError(f"the {self.engine} world does not render")
+
+
+def planar_leg_ik(l1: float, l2: float, sgn: float, x: float, z: float) -> tuple[float, float]:
+    """HFE, KFE of a two-link leg (thigh `l1`, shank `l2` m, knee bending to `sgn`) putting the foot centre
+    at (x, z) m from the hip in the body frame."""
+    r2 = x * x + z * z
+    ck = max(-1.0, min(1.0, (r2 - l1 * l1 - l2 * l2) / (2 * l1 * l2)))
+    k = sgn * math.acos(ck)
+    # foot = -l1 (sin h, cos h) - l2 (sin(h+k), cos(h+k)); solve for h
+    a = l1 + l2 * math.cos(k)
+    b = l2 * math.sin(k)
+    # x = -(a sin h + b cos h), z = -(a cos h - b sin h)
+    h = math.atan2(-x, -z) - math.atan2(b, a)
+    return h, k
 
 
 def load_meta(path: Path) -> dict:

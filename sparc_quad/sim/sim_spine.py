@@ -91,6 +91,17 @@ class DirectSpine:
         self._dq = np.zeros(4)
         self._tau: list[float] = [0.0, 0.0, 0.0]
         self.saturated_steps = 0  # steps on which the node's torque clamp cut a command
+        # a drive with a control clock (`ScheduledDrive`) is filled and run only at its calls; its torque,
+        # held in between, is kept here as floats
+        self._tick = getattr(self.drive, "tick", None)
+        self._held: list[float] = self.drive.tau.tolist() if self._tick is not None else []
+        # joint_limit_damping_list's "every joint clear of its margin" bounds and zero-depth factor
+        if self._margin > 0:
+            self._clear = [(lo + self._margin, hi - self._margin)
+                           for lo, hi in zip(self._lower, self._upper, strict=True)]
+        else:
+            self._clear = None
+        self._zero_damp = -self._c_limit * 0.0
 
     @property
     def task_pose(self) -> np.ndarray:
@@ -101,20 +112,46 @@ class DirectSpine:
         return self.drive.energy_j
 
     def begin(self, est, q_spine, dq_spine, t_s: float) -> None:
-        q, dq = self._q, self._dq
-        q[0], dq[0] = est.q1, est.dq1
-        q[1:] = q_spine
-        dq[1:] = dq_spine
-        tau = self.drive.step(q, dq, est.ddq1 if self._torso_accel else 0.0).tolist()
+        tick = self._tick
+        if tick is None or tick():
+            q, dq = self._q, self._dq
+            q[0], dq[0] = est.q1, est.dq1
+            q[1:] = q_spine
+            dq[1:] = dq_spine
+            ddq1 = est.ddq1 if self._torso_accel else 0.0
+            if tick is None:
+                tau = self.drive.step(q, dq, ddq1).tolist()
+            else:
+                tau = self._held = self.drive.update(q, dq, ddq1).tolist()
+        else:
+            tau = self._held
         if self.actuated:  # what the node does to a controller's torque before the motors get it
-            qs, dqs = q[1:].tolist(), dq[1:].tolist()
-            extra, _ = safety.joint_limit_damping_list(qs, dqs, self._lower, self._upper, self._margin,
-                                                       self._c_limit)
-            tau = [a + b for a, b in zip(tau, extra, strict=True)]
-            tau, sat = safety.clamp_torque_list(tau, self._tau_max)
-            if sat[0] or sat[1] or sat[2]:
-                self.saturated_steps += 1
-        self._tau = tau
+            self._tau = self._node_limits(tau, q_spine, dq_spine)
+        else:
+            self._tau = tau
+
+    def _node_limits(self, tau: list[float], q_spine, dq_spine) -> list[float]:
+        """`safety.joint_limit_damping_list` added, then `safety.clamp_torque_list`: the node's path, with
+        both functions' usual-tick shortcuts taken here without building their lists."""
+        qa, qb, qc = q_spine
+        clear = self._clear
+        if (clear is not None and clear[0][0] <= qa <= clear[0][1] and clear[1][0] <= qb <= clear[1][1]
+                and clear[2][0] <= qc <= clear[2][1]):
+            z = self._zero_damp  # depth 0: each extra is -c * 0.0 * dq (a signed zero, NaN for inf dq)
+            da, db, dc = dq_spine
+            a, b, c = tau[0] + z * da, tau[1] + z * db, tau[2] + z * dc
+        else:
+            extra, _ = safety.joint_limit_damping_list([float(v) for v in q_spine],
+                                                       [float(v) for v in dq_spine], self._lower, self._upper,
+                                                       self._margin, self._c_limit)
+            a, b, c = (t + e for t, e in zip(tau, extra, strict=True))
+        lim = self._tau_max
+        if -lim <= a <= lim and -lim <= b <= lim and -lim <= c <= lim:
+            return [a, b, c]
+        out, sat = safety.clamp_torque_list([a, b, c], lim)
+        if sat[0] or sat[1] or sat[2]:
+            self.saturated_steps += 1
+        return out
 
     def finish(self) -> list[float]:
         return self._tau

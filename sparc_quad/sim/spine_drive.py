@@ -205,7 +205,10 @@ class ScheduledDrive:
     def energy_j(self) -> float:
         return self.drive.energy_j
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+    def tick(self) -> bool:
+        """Advance one physics step (the gain switch when it is due); whether the drive runs at this step.
+        `step` is `tick` then, when it runs, `update`; a caller that fills q and dq only when the drive
+        runs calls the two itself."""
         clock = self.clock
         if clock is not None:
             run = clock.tick()
@@ -217,9 +220,17 @@ class ScheduledDrive:
             self.drive.set_gains(k=self.gains.k, d=self.gains.d,
                                  x_d=(self.schedule.x_d1_m, self.schedule.z_d_m, 0.0))
             self._switched = True
-        if run:
-            self.tau[:] = self.drive.step(q, dq, ddq1)
         self._k += 1
+        return run
+
+    def update(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+        """Run the wrapped drive now (a step where `tick` said so); the torque it holds until the next."""
+        self.tau[:] = self.drive.step(q, dq, ddq1)
+        return self.tau
+
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+        if self.tick():
+            self.update(q, dq, ddq1)
         return self.tau
 
 

@@ -134,6 +134,10 @@ class MujocoWorld(QuadWorld):
         self._geom_body = {g for g in range(m.ngeom) if m.geom_bodyid[g] > 0 and not in_leg(m.geom_bodyid[g])}
         self._cf = np.zeros(6)
         self._elliptic = m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+        # MjData's fixed-size arrays as numpy views, made once (each `d.qpos` builds a new view); they stay
+        # valid for the life of `self.data`
+        self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
+        self._ctrl_all = isinstance(self._ctrl_idx, slice)
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
         if cfg.init_vx_m_s:
             self.data.qvel[0] = cfg.init_vx_m_s
@@ -168,8 +172,8 @@ class MujocoWorld(QuadWorld):
     # ---- state ---------------------------------------------------------------------------------------
     def read(self) -> None:
         d = self.data
-        qp = d.qpos.tolist()  # one conversion each, then plain floats (the per-step cost is Python's)
-        qv = d.qvel.tolist()
+        qp = self._qpos.tolist()  # one conversion each, then plain floats (the per-step cost is Python's)
+        qv = self._qvel.tolist()
         px, py, pz, qw, qx, qy, qz = qp[:7]
         vx, vy, vz, wx, wy, wz = qv[:6]
         rot = (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
@@ -207,7 +211,11 @@ class MujocoWorld(QuadWorld):
             feet, floor, cf, m = self._geom_foot, self._floor, self._cf, self.model
             # elliptic cones: a contact's first constraint row is its normal force (what mj_contactForce
             # copies); pyramidal ones need mj_contactForce's conversion
-            adr = con.efc_address.tolist() if self._elliptic else None
+            if self._elliptic:
+                adr = con.efc_address.tolist()
+                efc = d.efc_force.tolist()  # the same doubles as float(d.efc_force[a]), one conversion
+            else:
+                adr = efc = None
             for i in range(ncon):
                 g1, g2 = geoms[i]
                 other = g2 if g1 == floor else g1 if g2 == floor else None
@@ -218,8 +226,9 @@ class MujocoWorld(QuadWorld):
                     self.other_contact = True
                     self.body_contact |= other in self._geom_body
                 elif adr is not None:
-                    if adr[i] >= 0:
-                        force[key] += float(d.efc_force[adr[i]])
+                    a = adr[i]
+                    if a >= 0:
+                        force[key] += efc[a]
                 else:
                     mujoco.mj_contactForce(m, d, i, cf)
                     force[key] += float(cf[0])
@@ -227,7 +236,10 @@ class MujocoWorld(QuadWorld):
     def step(self) -> None:
         d = self.data
         tau = self._tau if not self._pad else self._tau[:self.n_engine_joints]
-        d.ctrl[self._ctrl_idx] = tau
+        if self._ctrl_all:
+            self._ctrl[:] = tau
+        else:
+            self._ctrl[self._ctrl_idx] = tau
         t0 = time.perf_counter()
         mujoco.mj_step(self.model, d)
         self.physics_wall_s += time.perf_counter() - t0
