@@ -41,11 +41,14 @@ _FOREIGN = {ch: codec.FingerprintError(ch, "", f"not a {codec.type_name(codec.TY
 
 # A flood on one channel must not stall the loop: each poll handles at most this many messages
 # and spends at most POLL_BUDGET_S; what is left waits in LCM's queue for the next tick. With LCM's UDP
-# provider each subscription's own queue also holds at most QUEUE_CAPACITY messages (LCM drops the rest
-# before they reach Python); only the newest message per channel is used, the others count as dropped.
-MAX_MESSAGES_PER_POLL = 32
+# provider each subscription's own queue holds at most QUEUE_CAPACITY messages and LCM drops new arrivals
+# unseen when it is full, so a real message is lost only if its channel's queue filled since the last poll:
+# the capacity holds more than a tick of a 75 000 msg/s flood (75), and a poll may drain that many (a
+# refused garbage message costs ~5 us with its dispatch, so ~100 fit the budget). Only the newest message
+# per channel is used, the others count as dropped.
+MAX_MESSAGES_PER_POLL = 128
 POLL_BUDGET_S = 0.0005
-QUEUE_CAPACITY = 16
+QUEUE_CAPACITY = 128
 
 
 class Inbox:
@@ -63,6 +66,7 @@ class Inbox:
         self.received = 0
         self.dropped: dict[str, int] = dict.fromkeys(_INCOMING, 0)  # superseded before the node looked
         self.rejected: dict[str, int] = dict.fromkeys(_INCOMING, 0)  # refused, per channel
+        self._foreign: set[str] = set()  # channels with a refused foreign payload since the last take
 
     def offer_bytes(self, channel: str, data: bytes) -> None:
         decode = _INCOMING.get(channel)
@@ -72,7 +76,9 @@ class Inbox:
         head = data[:8]
         if head != _FINGERPRINT[channel] and head not in _KNOWN_FINGERPRINTS:
             self.rejected[channel] += 1
-            self.rejects.append(_FOREIGN[channel])
+            if channel not in self._foreign:  # once per take: a flood must not cost the tick per message
+                self._foreign.add(channel)
+                self.rejects.append(_FOREIGN[channel])
             return
         try:
             msg = decode(data, channel)
@@ -100,6 +106,7 @@ class Inbox:
         self.reset_requested = False
         if rejects:
             rejects.clear()
+            self._foreign.clear()
         return out
 
 
