@@ -1,6 +1,6 @@
 """Ctrl-C during `bound`, `bench`, `gap synth` and `gap run` ends cleanly (exit 130, one line, no traceback),
 and --out holds the whole previous result: the new one is written to a temporary sibling that replaces the
-folder only when complete (issue 10 item 11)."""
+folder only when complete."""
 
 from __future__ import annotations
 
