@@ -146,6 +146,27 @@ def _check_writable(path: Path, what: str) -> None:
                                          f"({exc.strerror or exc})") from None
 
 
+def existing_file(text: str) -> Path:
+    """An input file that exists."""
+    path = Path(text)
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"{path}: no such file")
+    return path
+
+
+def existing_dir(what: str = "") -> Callable[[str], Path]:
+    """An input folder that exists (`what` says which, in the error)."""
+
+    def parse(text: str) -> Path:
+        path = Path(text)
+        if not path.is_dir():
+            raise argparse.ArgumentTypeError(f"{path}: no such folder{f' ({what})' if what else ''}")
+        return path
+
+    parse.__name__ = "folder"
+    return parse
+
+
 def output_dir(text: str) -> Path:
     """A folder to write into: not empty, not a file, creatable and writable."""
     if not text.strip():

@@ -63,11 +63,15 @@ def run(args: argparse.Namespace) -> int:
             if not robot.wait_for_node(args.wait_node):
                 log.error("no heartbeat from a spine node within %.1f s", args.wait_node)
                 return 1
-            if args.clock == "lockstep":
-                robot.run_lockstep(stop=stop.is_set)
-                rate = None
-            else:
-                rate = robot.run_realtime(stop=stop.is_set)
+            rate = None
+            try:
+                if args.clock == "lockstep":
+                    robot.run_lockstep(stop=stop.is_set)
+                else:
+                    rate = robot.run_realtime(stop=stop.is_set)
+            except OSError:  # LCM's select() cut by the signal that set `stop` (EINTR) is the stop
+                if not stop.is_set():
+                    raise
             states = port.drain_states(0.3)  # the node's last states still in flight
         summary = {"ticks": robot.k, "unanswered": robot.unanswered, "retransmits": robot.retransmits,
                    "node_states": len(states),

@@ -11,9 +11,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
-from sparc_quad.cli.args import SIM_DURATION_MAX_S, in_range, output_dir, seed
+from sparc_quad.cli.args import SIM_DURATION_MAX_S, existing_file, in_range, output_dir, seed
 from sparc_quad.cli.errors import BadInput, bad_input
 from sparc_quad.cli.output import atomic_dir, moved
 from sparc_quad.effects import names as effect_names
@@ -45,13 +44,6 @@ def legacy_argv(argv: list[str]) -> list[str]:
     return new
 
 
-def _existing_file(text: str) -> Path:
-    path = Path(text)
-    if not path.is_file():
-        raise argparse.ArgumentTypeError(f"{path}: no such file")
-    return path
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "gap", help="sim-vs-measured gap: locate, name the missing effect, write a plant file",
@@ -66,7 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("trials", nargs="+", metavar="TRIAL",
                    help="trial CSVs (sidecar JSON with the same stem) or lcm-logger files")
     r.add_argument("--out", type=output_dir, required=True, help="output folder")
-    r.add_argument("--plant", type=_existing_file, default=None, metavar="JSON",
+    r.add_argument("--plant", type=existing_file, default=None, metavar="JSON",
                    help="nominal plant-effects file (default: the sidecar's 'plant' key, else none)")
     r.add_argument("--window", type=in_range(0.0, WINDOW_MAX_S, lo_open=True), default=0.2,
                    help=f"replay window length, s, up to {WINDOW_MAX_S:g}")

@@ -25,7 +25,7 @@ from sparc_quad.cli.args import WALL_DURATION_MAX_S, add_can_options, id_list, i
 from sparc_quad.cli.can_open import open_can
 from sparc_quad.cli.errors import BadInput, bad_input
 from sparc_quad.cli.parser import RawDescriptionFormatter
-from sparc_quad.cli.signals import stop_on_signals
+from sparc_quad.cli.signals import stop_after, stop_on_signals
 from spine_module.buses.cybergear.watchdog import DEADLINE_MAX_S, DEADLINE_MIN_S
 
 ACTIONS = ("scan", "status", "enable", "disable", "zero", "set-id", "emulate", "watchdog")
@@ -195,12 +195,8 @@ def _serve(args: argparse.Namespace, ids: list[int], host: int, cfg, bus, plant,
         while not stop.wait(0.001) and (t_end is None or emu.clock() < t_end):
             emu.check_can_timeouts()
     else:
-        timer = threading.Timer(args.duration, stop.set) if args.duration else None
-        if timer:
-            timer.start()
-        emu.run(stop)
-        if timer:
-            timer.cancel()
+        with stop_after(stop, args.duration):
+            emu.run(stop)
     emu.shutdown()
     print(f"emulator: {len(emu.rejected)} frames rejected, {len(emu.refused)} commands refused, "
           f"{emu.sent} frames sent, {emu.steps} plant steps", flush=True)
@@ -233,12 +229,8 @@ def _watch(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: in
     print(f"watchdog: motor(s) {ids} on {args.can_interface}:{args.can_channel}, "
           f"deadline {deadline * 1e3:g} ms", flush=True)
     try:
-        timer = threading.Timer(args.duration, stop.set) if args.duration else None
-        if timer:
-            timer.start()
-        dog.run(stop)
-        if timer:
-            timer.cancel()
+        with stop_after(stop, args.duration):
+            dog.run(stop)
     finally:
         notifier.stop()
         bus.shutdown()

@@ -38,3 +38,16 @@ def stop_on_signals() -> Iterator[Stop]:
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def stop_after(stop: threading.Event, duration_s: float | None) -> Iterator[None]:
+    """Set `stop` after `duration_s` of wall time (never if None) while the block runs."""
+    timer = threading.Timer(duration_s, stop.set) if duration_s else None
+    if timer:
+        timer.start()
+    try:
+        yield
+    finally:
+        if timer:
+            timer.cancel()

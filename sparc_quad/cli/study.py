@@ -7,7 +7,7 @@ import signal
 import sys
 from pathlib import Path
 
-from sparc_quad.cli.args import in_range, output_dir
+from sparc_quad.cli.args import existing_dir, in_range, output_dir
 from sparc_quad.cli.errors import BadInput
 
 WORKERS_MAX = 256
@@ -37,13 +37,6 @@ def _scheduler(text: str) -> str:
             f"expected a Dask scheduler address SCHEME://HOST:PORT ({', '.join(SCHEDULER_SCHEMES)}), "
             f"e.g. tcp://10.0.0.5:8786, got {text!r}")
     return text
-
-
-def _study_dir(text: str) -> Path:
-    path = Path(text)
-    if not path.is_dir():
-        raise argparse.ArgumentTypeError(f"{path}: no such folder (a folder written by `study run`)")
-    return path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -88,7 +81,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     rep.add_argument(
         "dir",
-        type=_study_dir,
+        type=existing_dir("a folder written by `study run`"),
         nargs="+",
         metavar="DIR",
         help="folder(s) written by `study run`; several are reported as one study (then --out is required)",

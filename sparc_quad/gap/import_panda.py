@@ -28,6 +28,7 @@ from sparc_quad.gap.import_util import (
     LogImportError,
     decimate,
     find_source,
+    importer_main,
     read_table,
     time_window,
     write_trial_csv,
@@ -143,18 +144,7 @@ def run(args: argparse.Namespace) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m sparc_quad.gap.import_panda",
-                                description=__doc__.split("\n")[0])
-    add_arguments(p)
-    args = p.parse_args(argv)
-    try:
-        paths = run(args)
-    except LogImportError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    for path in paths:
-        print(path)
-    return 0
+    return importer_main("import_panda", __doc__.split("\n")[0], add_arguments, run, argv)
 
 
 if __name__ == "__main__":

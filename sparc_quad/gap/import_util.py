@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -71,3 +73,19 @@ def time_window(text: str) -> tuple[float, float]:
         return float(a), float(b)
     except ValueError:
         raise argparse.ArgumentTypeError(f"window must be START:END in seconds, got {text!r}") from None
+
+
+def importer_main(module: str, description: str, add_arguments: Callable[[argparse.ArgumentParser], None],
+                  run: Callable[[argparse.Namespace], list[Path]], argv: Sequence[str] | None) -> int:
+    """`python -m sparc_quad.gap.<module>`: parse, import, print the trial paths; 2 on a LogImportError
+    (the same importer is `sparc-quad gap import ...`)."""
+    p = argparse.ArgumentParser(prog=f"python -m sparc_quad.gap.{module}", description=description)
+    add_arguments(p)
+    try:
+        paths = run(p.parse_args(argv))
+    except LogImportError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for path in paths:
+        print(path)
+    return 0
