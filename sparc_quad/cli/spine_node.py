@@ -9,8 +9,11 @@ It speaks the channels documented in docs (spine node and LCM interface).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
+import signal
+from collections.abc import Iterator
 
 from sparc_quad.cli.args import (
     NODE_RATE_MIN_HZ,
@@ -78,6 +81,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+@contextlib.contextmanager
+def _terminate_raises() -> Iterator[None]:
+    """SIGTERM as KeyboardInterrupt for the block: the bus start-up (handshakes, waits) is left through
+    the same clean-up as Ctrl-C instead of the process dying with motors enabled."""
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def _node_config(args: argparse.Namespace):
     from spine_module.node import NodeConfig
 
@@ -138,12 +155,17 @@ def run(args: argparse.Namespace) -> int:
     # feed the motors that start() enabled (their CAN timeout is 50 ms)
     rt_done.append(realtime.freeze_startup_objects())
     try:
-        bus.start()
+        with _terminate_raises():
+            bus.start()
     except MotorBusError as exc:  # e.g. a motor that did not answer: say which, stop the others, exit
         log.error("motor bus start-up failed: %s", exc)
         bus.shutdown()
         io.close()
         return 1
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM while starting: the motors enabled so far are stopped
+        bus.shutdown()
+        io.close()
+        raise
     log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
     try:
         with stop_on_signals() as stop:
