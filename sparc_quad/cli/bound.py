@@ -194,6 +194,18 @@ def check_gait(cfg) -> None:
                        f"{sweep_max * gait.frequency_hz / duty:.2f} m/s")
 
 
+def speed_warning(metrics: dict, target_m_s: float | None) -> str | None:
+    """A warning when a steady, standing run's mean speed stayed below SPEED_SHORTFALL x the target (the
+    gait could not reach it), else None."""
+    mean = metrics.get("speed_m_s")
+    if not (metrics.get("window_ok") and not metrics.get("fell") and mean is not None and target_m_s):
+        return None
+    if mean >= SPEED_SHORTFALL * target_m_s:
+        return None
+    return (f"warning: mean speed {mean:.3f} m/s is below {SPEED_SHORTFALL:g} x the target {target_m_s:g} "
+            "m/s: the gait did not reach the commanded speed")
+
+
 def run(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bound_run import run_bound, write_outputs
 
@@ -252,11 +264,9 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(summary, indent=2, default=float))
     if not m.get("window_ok", False):
         print(f"warning: {m.get('warning', 'steady window too short')} (metrics.json has window_ok: false)")
-    mean, target = m.get("speed_m_s"), getattr(cfg.gait, "speed_m_s", None)
-    short = mean is not None and bool(target) and mean < SPEED_SHORTFALL * target
-    if m.get("window_ok") and not m["fell"] and short:
-        print(f"warning: mean speed {mean:.3f} m/s is below {SPEED_SHORTFALL:g} x the target {target:g} m/s: "
-              "the gait did not reach the commanded speed")
+    warning = speed_warning(m, getattr(cfg.gait, "speed_m_s", None))
+    if warning:
+        print(warning)
     for path in paths:
         print(f"wrote {path}")
     return 1 if m["fell"] else 0

@@ -18,6 +18,7 @@ EXAMPLES = [line for block in re.findall(r"```sh\n(.*?)```", DOC, re.S) for line
             if line.startswith("sparc-quad ")]
 
 
+@pytest.mark.integration  # one process per example, ~5-20 s each: not in the unit tier
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("line", EXAMPLES)
 def test_example_runs_as_written(line, tmp_path):

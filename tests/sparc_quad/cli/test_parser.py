@@ -139,3 +139,15 @@ def test_earlier_gap_spellings_still_work(capsys):
     assert "is now `gap run t.csv ...`" in capsys.readouterr().err
     for same in (["gap", "run", "t.csv"], ["gap", "synth"], ["gap", "--help"], ["bound", "gap"]):
         assert legacy_argv(same) == same
+
+
+def test_bound_warns_when_the_gait_misses_its_speed():
+    """Measured: `bound --speed 3 --duration 6` ran at 1.908 m/s with window_ok true (solo12, pybullet)."""
+    from sparc_quad.cli.bound import speed_warning
+
+    steady = {"window_ok": True, "fell": False, "speed_m_s": 1.908}
+    assert "below 0.75 x the target 3 m/s" in speed_warning(steady, 3.0)
+    assert speed_warning(steady, 2.0) is None
+    assert speed_warning({**steady, "window_ok": False}, 3.0) is None  # that has its own warning
+    assert speed_warning({**steady, "fell": True}, 3.0) is None
+    assert speed_warning(steady, None) is None  # the sine gait has no target speed
