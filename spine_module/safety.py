@@ -23,7 +23,9 @@ Behaviours (deadlines from `params.SAFETY`):
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -58,8 +60,7 @@ class SafetyConfig:
     default_d: np.ndarray = field(default_factory=lambda: params.D_DEFAULT.copy())
 
 
-@dataclass(frozen=True)
-class Receipts:
+class Receipts(NamedTuple):
     """When each input last arrived (valid), on the node's clock, s; None if never."""
 
     torso: float | None = None
@@ -87,6 +88,24 @@ class Verdict:
     enable: bool  # False: motors stopped (zero torque)
 
 
+class Supervised(NamedTuple):
+    """One tick of `supervise_values` as plain values (fault bits and modes as ints: IntFlag arithmetic costs
+    ~1 us per operation at 1 kHz): the safety state, fed back as the next tick's `prev`, then the verdict."""
+
+    latched: int = 0  # latched fault bits
+    heartbeat_seen: bool = False
+    mode: int = int(Mode.DISABLED)  # the mode to run (this tick's; last tick's when fed back)
+    ramp_t0: float | None = None
+    stale_since: float | None = None
+    reset_count: int = 0
+    faults: int = 0  # active and latched fault bits
+    gain_scale: float = 0.0
+    default_gains: bool = False
+    enable: bool = False
+
+
+_tuple_new = tuple.__new__
+
 # Deadlines compare with this slack so that float sums of tick times (0.001 * k) do not trip a deadline
 # one tick early: an input exactly `deadline` old is still fresh.
 EPS_S = 1e-9
@@ -112,24 +131,22 @@ def supervise(state: SafetyState, now: float, rx: Receipts, requested: Mode, res
               cfg: SafetyConfig) -> tuple[SafetyState, Verdict]:
     """One tick of the watchdogs and latches. `reset` is True on the tick a command asking for a reset
     arrives; `requested` is the mode of the command in force (DISABLED before any)."""
-    (latched, heartbeat_seen, mode, ramp_t0, stale_since, reset_count, faults, scale, default_gains,
-     enable) = supervise_values(int(state.latched), state.heartbeat_seen, int(state.mode), state.ramp_t0,
-                                state.stale_since, state.reset_count, now, rx.torso, rx.feedback, rx.command,
-                                rx.heartbeat, int(requested), reset, cfg)
-    new = SafetyState(latched=Fault(latched), heartbeat_seen=heartbeat_seen, mode=MODES[mode],
-                      ramp_t0=ramp_t0, stale_since=stale_since, reset_count=reset_count)
-    return new, Verdict(mode=MODES[mode], faults=Fault(faults), gain_scale=scale, default_gains=default_gains,
-                        enable=enable)
+    prev = Supervised(int(state.latched), state.heartbeat_seen, int(state.mode), state.ramp_t0,
+                      state.stale_since, state.reset_count)
+    v = supervise_values(prev, now, rx, int(requested), reset, cfg)
+    new = SafetyState(latched=Fault(v.latched), heartbeat_seen=v.heartbeat_seen, mode=MODES[v.mode],
+                      ramp_t0=v.ramp_t0, stale_since=v.stale_since, reset_count=v.reset_count)
+    return new, Verdict(mode=MODES[v.mode], faults=Fault(v.faults), gain_scale=v.gain_scale,
+                        default_gains=v.default_gains, enable=v.enable)
 
 
-def supervise_values(latched: int, heartbeat_seen: bool, last_mode: int, ramp_t0: float | None,
-                     stale_since: float | None, reset_count: int, now: float, rx_torso: float | None,
-                     rx_feedback: float | None, rx_command: float | None, rx_heartbeat: float | None,
-                     requested: int, reset: bool, cfg: SafetyConfig) -> tuple:
-    """`supervise` on plain ints and floats (fault bits and modes as ints, receipts as times or None), for
-    the node's 1 kHz tick: no state objects, no IntFlag arithmetic. Returns (latched, heartbeat_seen,
-    mode, ramp_t0, stale_since, reset_count, faults, gain_scale, default_gains, enable); `supervise` is
-    this function with `SafetyState`/`Verdict` around it."""
+def supervise_values(prev: Supervised, now: float, rx: Receipts, requested: int, reset: bool,
+                     cfg: SafetyConfig) -> Supervised:
+    """`supervise` on plain values, for the node's 1 kHz tick: no enum objects, no IntFlag arithmetic;
+    `prev` is the last tick's result (`Supervised()` before the first). `supervise` is this function with
+    `SafetyState`/`Verdict` around it."""
+    latched, heartbeat_seen, last_mode, ramp_t0, stale_since, reset_count, _, _, _, _ = prev
+    rx_torso, rx_feedback, rx_command, rx_heartbeat = rx
     heartbeat_seen = heartbeat_seen or rx_heartbeat is not None
     # an input never received is infinitely old (as `age`), also against an infinite deadline
     hb_age = _INF if rx_heartbeat is None else now - rx_heartbeat - EPS_S
@@ -197,8 +214,9 @@ def supervise_values(latched: int, heartbeat_seen: bool, last_mode: int, ramp_t0
         else:
             ramp_t0 = None
             scale = 1.0 if mode in _TORQUE else 0.0
-    return (latched, heartbeat_seen, mode, ramp_t0, stale_since, reset_count, latched | active, scale,
-            default_gains, enable)
+    # tuple.__new__ directly: a NamedTuple's own __new__ is a Python function (~1 us a call at 1 kHz)
+    return _tuple_new(Supervised, (latched, heartbeat_seen, mode, ramp_t0, stale_since, reset_count,
+                                   latched | active, scale, default_gains, enable))
 
 
 def clamp_torque(tau: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
@@ -228,9 +246,9 @@ def clamp_torque_list(tau: list[float], limit: float) -> tuple[list[float], list
     return out, sat
 
 
-def damping_torque(dq: np.ndarray, c: float) -> np.ndarray:
-    """The damping (safe) mode: tau = -c dq."""
-    return -c * np.asarray(dq, dtype=float)
+def damping_torque(dq: Sequence[float], c: float) -> list[float]:
+    """The damping (safe) mode: tau = -c dq, on plain floats (the node's 1 kHz path)."""
+    return [-c * a for a in dq]
 
 
 def joint_limit_damping(q: np.ndarray, dq: np.ndarray, lower: np.ndarray, upper: np.ndarray, margin: float,

@@ -33,6 +33,7 @@ from spine_module.node.io import NodeIO
 log = logging.getLogger("spine_module.node")
 
 _BAD_COMMAND = int(Fault.BAD_COMMAND)
+_tuple_new = tuple.__new__  # NamedTuple records without their Python-level __new__ (1 kHz path)
 _ZEROS3 = np.zeros(3)  # q_des, dq_des, kp, kd of the node's torque-only commands: shared, so read-only
 _ZEROS3.flags.writeable = False
 _BAD_BY_CHANNEL = {ch.TORSO_STATE: int(Fault.BAD_TORSO), ch.SPINE_COMMAND: _BAD_COMMAND,
@@ -75,14 +76,9 @@ class SpineNode:
         self.bus = bus
         self.io = io
         self.cfg = config if config is not None else NodeConfig()
-        # safety state and input receipts as plain values (`safety.supervise_values`); the `safety` and `rx`
-        # properties show them as the SafetyState / Receipts objects
-        self._latched = 0  # latched fault bits
-        self._heartbeat_seen = False
-        self._safety_mode = int(Mode.DISABLED)  # mode that ran last tick
-        self._ramp_t0: float | None = None
-        self._stale_since: float | None = None
-        self._reset_count = 0
+        # safety state as plain values (`safety.supervise_values`); the `safety` property shows it as a
+        # SafetyState
+        self._sv = safety.Supervised()
         self._rx_torso: float | None = None  # when each input last arrived (valid), node time, s
         self._rx_feedback: float | None = None
         self._rx_command: float | None = None
@@ -118,9 +114,10 @@ class SpineNode:
     @property
     def safety(self) -> safety.SafetyState:
         """The watchdogs' and latches' state after the last tick."""
-        return safety.SafetyState(latched=Fault(self._latched), heartbeat_seen=self._heartbeat_seen,
-                                  mode=MODES[self._safety_mode], ramp_t0=self._ramp_t0,
-                                  stale_since=self._stale_since, reset_count=self._reset_count)
+        v = self._sv
+        return safety.SafetyState(latched=Fault(v.latched), heartbeat_seen=v.heartbeat_seen,
+                                  mode=MODES[v.mode], ramp_t0=v.ramp_t0, stale_since=v.stale_since,
+                                  reset_count=v.reset_count)
 
     @property
     def rx(self) -> safety.Receipts:
@@ -204,12 +201,11 @@ class SpineNode:
 
         command = self.command
         requested = command.mode if command is not None else Mode.DISABLED
-        (self._latched, self._heartbeat_seen, mode_i, self._ramp_t0, self._stale_since, self._reset_count,
-         faults, scale, default_gains, enable) = safety.supervise_values(
-            self._latched, self._heartbeat_seen, self._safety_mode, self._ramp_t0, self._stale_since,
-            self._reset_count, now, self._rx_torso, self._rx_feedback, self._rx_command, self._rx_heartbeat,
-            int(requested), reset, scfg)
-        self._safety_mode = mode_i
+        self._sv = sv = safety.supervise_values(
+            self._sv, now, _tuple_new(safety.Receipts, (self._rx_torso, self._rx_feedback, self._rx_command,
+                                                        self._rx_heartbeat)), int(requested), reset, scfg)
+        mode_i, faults, scale, default_gains, enable = sv.mode, sv.faults, sv.gain_scale, sv.default_gains, \
+            sv.enable
         mode = MODES[mode_i]
         # fault bits as a plain int inside the tick (IntFlag arithmetic costs ~1 us per operation)
         if self._pending_bus_fault:
@@ -245,8 +241,7 @@ class SpineNode:
             if mode_i == _JOINT_TORQUE:
                 tau_l = np.asarray(command.tau_ff, dtype=float).tolist()
             elif mode_i == _DAMPING:
-                c = scfg.damping_mode
-                tau_l = [-c * a for a in dq_l[1:]]
+                tau_l = safety.damping_torque(dq_l[1:], scfg.damping_mode)
         if (controlled or mode_i == _DAMPING or mode_i == _JOINT_TORQUE) and not controller_failed:
             extra, near = safety.joint_limit_damping_list(q_l[1:], dq_l[1:], self._lower, self._upper,
                                                           scfg.limit_margin, scfg.joint_limit_damping)
@@ -272,8 +267,9 @@ class SpineNode:
         hb_next = self._hb_next
         if hb_next is None or now >= hb_next or now < hb_next - 10 * cfg.heartbeat_period_s:
             self._hb_next = now + cfg.heartbeat_period_s
-            io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(self._latched),
-                                           reset_count=self._reset_count, stamp_s=now, seq=self._hb_seq))
+            sv = self._sv
+            io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(sv.latched),
+                                           reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq))
             self._hb_seq += 1
 
         if faults != self._last_faults:
@@ -309,7 +305,7 @@ class SpineNode:
         try:
             # gains and target change only with the command's numbers, the soft-start scale or the
             # controller: set them then, not every tick (a stream of equal commands costs one compare)
-            key = _gains_key(c, scale, default_gains, self._ramp_t0)
+            key = _gains_key(c, scale, default_gains, self._sv.ramp_t0)
             if ctrl is not self._set_ctrl or key != self._set_for:
                 self._set_ctrl = None
                 self._set_gains_and_target(ctrl, c, scale, default_gains, q, dq)
@@ -349,8 +345,9 @@ class SpineNode:
     def _ramped_target(self, scale: float, x_d, dx_d, ddx_d, q: np.ndarray, dq: np.ndarray):
         """During a soft start the target moves from the pose at the ramp's start to the commanded one,
         so a spine that starts far from its target is not yanked there (as gains come up)."""
-        if self._ramp_key != self._ramp_t0:
-            self._ramp_key = self._ramp_t0
+        ramp_t0 = self._sv.ramp_t0
+        if self._ramp_key != ramp_t0:
+            self._ramp_key = ramp_t0
             x0, _ = self.ctrl.task_state(q, dq)
             self._ramp_from = x0 if np.all(np.isfinite(x0)) else None
         if self._ramp_from is None:
@@ -401,8 +398,9 @@ class SpineNode:
         """Heartbeat while waiting for the first (or a late) feedback tick in lockstep, so the robot side
         knows the node is up; stamped with the node's last time."""
         now = self.last_now if self.last_now is not None else 0.0
-        self.io.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=bool(self._latched),
-                                            reset_count=self._reset_count, stamp_s=now, seq=self._hb_seq))
+        sv = self._sv
+        self.io.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=bool(sv.latched),
+                                            reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq))
         self._hb_seq += 1
 
     def stop(self) -> None:
