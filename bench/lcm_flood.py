@@ -27,8 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-SETUP = "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo\n"
+from lcm_loop import ROOT, SETUP, _unshare  # this folder's LCM bench: the same namespace set-up
+
 DECOY = "SPARC_FLOOD_DECOY"
 CHANNELS = ("SPARC_HEARTBEAT_ROBOT", "SPARC_TORSO_STATE", "SPARC_SPINE_COMMAND")
 
@@ -56,13 +56,6 @@ def flood(channel: str, rate: float, stop_file: Path, out: Path) -> int:
         time.sleep(0.001)
     out.write_text(json.dumps({"sent": sent, "seconds": time.monotonic() - t0}))
     return 0
-
-
-def _unshare() -> list[str]:
-    for prefix in (["unshare", "-rn"], ["unshare", "-n"]):
-        if subprocess.run([*prefix, "sh", "-c", SETUP], capture_output=True).returncode == 0:
-            return prefix
-    raise SystemExit("cannot create a network namespace (unshare) here")
 
 
 def run_case(channel: str, seconds: float, rate: float, d: Path) -> dict:
