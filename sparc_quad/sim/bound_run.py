@@ -10,6 +10,7 @@ from __future__ import annotations
 import collections
 import json
 import math
+import struct
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
@@ -174,6 +175,10 @@ def run_bound(
     set_torques, world_step, realtime = world.set_torques, world.step, cfg.realtime
     flags = gait.stance_flags
     ndarray = np.ndarray
+    # a log row is packed as doubles straight into its place in `log` (PyFloat_AsDouble per value, the same
+    # doubles numpy's row assignment makes, without the temporary array)
+    row = struct.Struct(f"{len(COLUMNS)}d")
+    pack_row, row_bytes = row.pack_into, row.size
     t0 = time.perf_counter()
     i = 0
     try:
@@ -210,16 +215,16 @@ def run_bound(
             task = task.tolist() if type(task) is ndarray else task
             if observe_spine is not None:
                 observe_spine(t, float(task[0]))
-            # log the state the torques were computed from: one row, one assignment; the power and peak
+            # log the state the torques were computed from: one row, one pack; the power and peak
             # columns are filled from the logged torques and rates after the loop (metrics.derived_columns)
             q1 = world.q1
             cf = world.contact_force
-            log[i] = (t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
-                      q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
-                      *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
-                      flags["hind"], flags["front"], 0.0, 0.0, 0.0,
-                      *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
-                      gait_phase(), gait_frequency(), spine.energy_j)
+            pack_row(log, i * row_bytes, t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
+                       q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
+                       *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+                       flags["hind"], flags["front"], 0.0, 0.0, 0.0,
+                       *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
+                       gait_phase(), gait_frequency(), spine.energy_j)
             if frame_every and i % frame_every == 0 and on_frame is not None:
                 on_frame(world)
             if prof:

@@ -15,6 +15,7 @@ After `mj_step` the positions and velocities are the new state; the contacts are
 from __future__ import annotations
 
 import math
+import struct
 import time
 from pathlib import Path
 
@@ -137,7 +138,8 @@ class MujocoWorld(QuadWorld):
         # MjData's fixed-size arrays as numpy views, made once (each `d.qpos` builds a new view); they stay
         # valid for the life of `self.data`
         self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
-        self._ctrl_all = isinstance(self._ctrl_idx, slice)
+        self._ctrl_all = isinstance(self._ctrl_idx, slice) and self._ctrl.flags.c_contiguous
+        self._pack_ctrl = struct.Struct(f"{m.nu}d").pack_into
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
         if cfg.init_vx_m_s:
             self.data.qvel[0] = cfg.init_vx_m_s
@@ -236,8 +238,8 @@ class MujocoWorld(QuadWorld):
     def step(self) -> None:
         d = self.data
         tau = self._tau if not self._pad else self._tau[:self.n_engine_joints]
-        if self._ctrl_all:
-            self._ctrl[:] = tau
+        if self._ctrl_all:  # packed as doubles into ctrl's buffer (the same conversion numpy makes)
+            self._pack_ctrl(self._ctrl, 0, *tau)
         else:
             self._ctrl[self._ctrl_idx] = tau
         t0 = time.perf_counter()
