@@ -19,9 +19,12 @@ import pytest
 from spine_module import params
 from spine_module.buses.cybergear import CanMotorBus, load_config
 from spine_module.buses.cybergear import protocol as P
-from spine_module.buses.cybergear.config import DEFAULT_CONFIG_PATH, ConfigError
+from spine_module.buses.cybergear.config import DEFAULT_CONFIG_PATH
 from spine_module.buses.cybergear.watchdog import StopWatchdog
 from tests.can_util import virtual_rig
+from tests.spine_module.buses.cybergear.test_safety_motors import (
+    test_bad_motor_config_names_file_and_field as refused_naming_file_and_field,
+)
 
 BASE = DEFAULT_CONFIG_PATH.read_text()
 
@@ -67,11 +70,7 @@ HOSTILE = [
 
 @pytest.mark.parametrize("text,needle", HOSTILE, ids=[n for _, n in HOSTILE])
 def test_hostile_motor_config_is_refused_naming_the_field(tmp_path, text, needle):
-    path = tmp_path / "motors.toml"
-    path.write_text(text)
-    with pytest.raises(ConfigError) as e:
-        load_config(path)
-    assert str(path) in str(e.value) and needle in str(e.value), str(e.value)
+    refused_naming_file_and_field(tmp_path, text, needle)
 
 
 def test_sane_values_still_load(tmp_path):
