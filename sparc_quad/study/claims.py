@@ -38,6 +38,7 @@ C4_RATIO = 0.5
 C5_K = (1000.0, 1500.0)
 C6_K = (500.0, 1000.0)
 COMPLIANT = ("impedance", "passive")
+MIN_JUDGED_CELLS = 2  # a best cell needs another on-speed cell to be best against
 DEFAULT_HOST, DEFAULT_ENGINE = "solo12", "pybullet"
 
 CLAIM_TEXT = {
@@ -52,14 +53,16 @@ CLAIM_TEXT = {
 }
 RULES = {
     "C1": "best cell (lowest mean CoT_pos among on-speed cells not falling more than the safest) has k_x in "
-    "800-1200 and so has every cell whose seed-paired difference to it reaches 0: reproduced; neither: "
+    "800-1200 and so has every cell whose seed-paired difference to it reaches 0 (at least 2 cells "
+    "ranked, else not tested): reproduced; neither: "
     "not reproduced; otherwise not resolved",
     "C2": "the same best-cell rule over k_x x d_x x L (panels differing only in the gait's step_length): "
     "k, d and L in range: reproduced; no near-best cell has all three: not reproduced; L fixed in "
     "70-80 mm: judged on k, d at that L; no L parameter: not tested",
-    "C3": "best cell's CoT_pos against its baseline (impedance: rigid-impedance, passive: locked), paired "
-    "by seed, at a panel whose target is 0.9 +- 0.1 m/s: CI below 0 reaching -21 %: reproduced; CI "
-    "above -21 %: not reproduced; CI containing 0 and -21 %: not resolved",
+    "C3": "best on-speed cell's CoT_pos against the on-speed baseline nearest the target (impedance: "
+    "rigid-impedance first, passive: locked first; over the step-length family for gait A), paired by "
+    "seed, target 0.9 +- 0.1 m/s; no on-speed baseline: not tested; CI below 0 reaching -21 %: "
+    "reproduced; CI above -21 %: not reproduced; CI containing 0 and -21 %: not resolved",
     "C3e": "C3's rule on CoT_elec; the finding shows the same cell with the winding loss constants x 0.5 "
     "and x 2",
     "C4": "range over the common on-speed k x d cells of % against the baseline, low-speed panel over the "
@@ -116,18 +119,26 @@ def _ref_panel(panels: list[dict]) -> dict | None:
     return min(ps, key=score)
 
 
+def _judged(cs: list, left: dict) -> int:
+    """How many cells the best-cell rule ranked (on speed, not falling more than the safest)."""
+    return sum(c.est is not None for c in cs) - len(left["off_speed"]) - len(left.get("fall_more", []))
+
+
 def _why_untested(cs: list, left: dict) -> str:
     n, nf = sum(c.n for c in cs), sum(c.n_fell for c in cs)
     off = left.get("off_speed", [])
     speeds = sorted(c.extras.get("speed_m_s") or 0.0 for c in off)
     txt = f"{speeds[0]:.2f}-{speeds[-1]:.2f} m/s" if speeds else ""
-    return f"no cell to judge: {nf}/{n} trials fell, {len(off)} cells off speed {txt}".rstrip()
+    return (
+        f"{_judged(cs, left)} of {len(cs)} cells on speed and standing (need {MIN_JUDGED_CELLS}): {nf}/{n} "
+        f"trials fell, {len(off)} cells off speed {txt}"
+    ).rstrip()
 
 
 def _best_k_rule(analysis, panel, spine, k_range, claim, base) -> dict:
     cs = _cells(analysis, panel["panel"], spine)
     best, near, left = best_of(cs)
-    if best is None:
+    if best is None or _judged(cs, left) < MIN_JUDGED_CELLS:
         return {**base, "claim": claim, "verdict": "not tested", "finding": _why_untested(cs, left)}
     ks = sorted({c.k for c in near})
     if _in(best.k, k_range):
@@ -163,7 +174,7 @@ def _c2(analysis, ref, family_panels, spine, base) -> dict:
     cs = [c for p in family_panels for c in _cells(analysis, p["panel"], spine)]
     L_of = {p["panel"]: p["config"]["step_length"] for p in family_panels}
     best, near, left = best_of(cs)
-    if best is None:
+    if best is None or _judged(cs, left) < MIN_JUDGED_CELLS:
         return {**base, "claim": "C2", "verdict": "not tested", "finding": _why_untested(cs, left)}
     varied = any(_in(L, C2_L_M) for L in Ls) and any(not _in(L, C2_L_M) for L in Ls)
 
