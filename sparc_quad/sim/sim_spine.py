@@ -141,10 +141,10 @@ class DirectSpine:
             da, db, dc = dq_spine
             a, b, c = tau[0] + z * da, tau[1] + z * db, tau[2] + z * dc
         else:
-            extra, _ = safety.joint_limit_damping_list([float(v) for v in q_spine],
-                                                       [float(v) for v in dq_spine], self._lower, self._upper,
-                                                       self._margin, self._c_limit)
-            a, b, c = (t + e for t, e in zip(tau, extra, strict=True))
+            (ea, eb, ec), _ = safety.joint_limit_damping_list([float(qa), float(qb), float(qc)],
+                                                              [float(v) for v in dq_spine], self._lower,
+                                                              self._upper, self._margin, self._c_limit)
+            a, b, c = tau[0] + ea, tau[1] + eb, tau[2] + ec
         lim = self._tau_max
         if -lim <= a <= lim and -lim <= b <= lim and -lim <= c <= lim:
             return [a, b, c]

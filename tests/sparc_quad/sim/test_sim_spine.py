@@ -87,3 +87,34 @@ def test_passive_spring_is_not_clamped():
 def test_skips_are_declared():
     assert any("soft start" in s for s in DirectSpine.SKIPS)
     assert any("watchdog" in s for s in DirectSpine.SKIPS)
+
+
+def _node_reference(spine: DirectSpine, tau, q, dq) -> list[float]:
+    """What the node does to a controller torque: joint-limit damping added, then the clamp."""
+    extra, _ = safety.joint_limit_damping_list(list(q), list(dq), spine._lower, spine._upper, spine._margin,
+                                               spine._c_limit)
+    out, _ = safety.clamp_torque_list([a + b for a, b in zip(tau, extra, strict=True)], spine._tau_max)
+    return out
+
+
+def test_direct_spine_limits_equal_the_node_functions_bit_for_bit():
+    """The direct path's inline shortcuts give the node functions' doubles (signed zeros and NaN included)
+    on states clear of the margins, inside them, beyond the limits, saturating and non-finite."""
+    spine = DirectSpine(SpineGains())
+    rng = np.random.default_rng(3)
+    lo, hi, lim = np.array(spine._lower), np.array(spine._upper), spine._tau_max
+    cases = 0
+    for k in range(3000):
+        q = rng.uniform(lo - 0.3, hi + 0.3)
+        dq = rng.normal(0.0, 3.0, 3) * (k % 7 != 0)  # some zero rates: signed zeros of the damping
+        tau = rng.normal(0.0, lim, 3)
+        if k % 97 == 0:
+            q[k % 3] = np.nan
+        if k % 89 == 0:
+            tau[k % 3] = np.inf
+        q, dq, tau = q.tolist(), dq.tolist(), tau.tolist()
+        got, want = spine._node_limits(tau, q, dq), _node_reference(spine, tau, q, dq)
+        assert np.array_equal(got, want, equal_nan=True), (q, dq, tau)
+        assert np.array_equal(np.signbit(got), np.signbit(want)), (q, dq, tau)
+        cases += 1
+    assert cases == 3000
