@@ -9,6 +9,8 @@ runs `--repeat` times, interleaved (a burst of load hits both alike); each figur
 - loop: simulated s / CPU s (time.process_time) of `run_bound`, world construction and metrics included;
 - engine step alone: simulated s / wall s inside mj_step or stepSimulation during the same bound
   (`world.physics_wall_s`, perf_counter: only the engine call, not the state read after it);
+- outside the loop: the share of run_bound's wall time spent before and after the stepping loop (world set-up,
+  metrics), and `loop_only_sim_s_per_cpu_s`, the loop alone (the call's CPU times the loop's wall share);
 - physics share: that engine-step wall time / the loop's wall time (same clock, same run; as
   bench/cosim.py). The thread's CPU clock (time.thread_time) around each ~20 us step was tried and is not
   usable on this machine: under load its sum over a bound exceeded the whole process's CPU time.
@@ -44,11 +46,11 @@ def trial(engine: str, host: str, duration_s: float) -> dict:
 
 def one_run(engine: str, host: str, duration_s: float, profile: dict | None = None) -> dict:
     cfg = bound_config(trial(engine, host, duration_s))
-    c0 = time.process_time()
+    c0, w0 = time.process_time(), time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a short or fallen run's metric warnings
         res = run_bound(cfg, profile=profile)
-    cpu = time.process_time() - c0
+    cpu, call_wall = time.process_time() - c0, time.perf_counter() - w0
     m = res.metrics
     sim = m["simulated_s"]
     return {
@@ -62,6 +64,10 @@ def one_run(engine: str, host: str, duration_s: float, profile: dict | None = No
         "loop_sim_s_per_cpu_s": sim / cpu,
         "engine_sim_s_per_s": sim / m["physics_wall_time_s"],
         "physics_share": m["physics_wall_time_s"] / m["wall_time_s"],
+        # the run's cost outside the stepping loop (world set-up, metrics), as a share of the call's wall
+        # time, and the loop alone: the call's CPU scaled by the loop's share of its wall time
+        "outside_loop_share": 1.0 - m["wall_time_s"] / call_wall,
+        "loop_only_sim_s_per_cpu_s": sim / (cpu * m["wall_time_s"] / call_wall),
         "spine_backend": m.get("spine_backend"),
         "gait_backend": m.get("gait_backend"),
     }
@@ -109,7 +115,9 @@ def main() -> int:
         r = result[e]
         phases = ", ".join(f"{k} {v:.2f}" for k, v in r["phase_share"].items())
         print(f"{e:9s} loop {r['loop_sim_s_per_cpu_s']:6.2f} sim s/CPU s, engine step alone "
-              f"{r['engine_sim_s_per_s']:6.1f} sim s/s, physics share {r['physics_share']:.2f}; "
+              f"{r['engine_sim_s_per_s']:6.1f} sim s/s, physics share {r['physics_share']:.2f}, loop alone "
+              f"{r['loop_only_sim_s_per_cpu_s']:.1f} sim s/CPU s ({r['outside_loop_share']:.2f} of the run "
+              f"outside it); "
               f"fell {r['fell']} ({r['fall_time_s']}), {r['speed_m_s']} m/s; loop shares (wall): {phases}")
     for e, why in skipped.items():
         print(f"{e:9s} skipped: {why}")
