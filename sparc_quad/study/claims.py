@@ -70,7 +70,8 @@ RULES = {
     "not resolved",
     "C5": "C1's rule with 1000-1500 N/m on the downhill panels (slope < 0)",
     "C6": "C1's rule with 500-1000 N/m on the uphill panels (slope > 0)",
-    "F1": "share of on-speed cells whose CoT_pos against the locked spine has a CI above 0",
+    "F1": "share of on-speed cells whose CoT_pos against the on-speed locked spine of the same panel has "
+    "a CI above 0: all: reproduced; any below 0: not reproduced; else partly",
 }
 
 
@@ -418,6 +419,14 @@ def _f1(analysis, ref, spine, base) -> dict:
         ),
         None,
     )
+    if locked is not None and locked.est is not None and locked.off_speed:
+        return {
+            **base,
+            "claim": "F1",
+            "verdict": "not tested",
+            "finding": f"the locked spine ran {locked.extras.get('speed_m_s') or 0:.2f} m/s, off the "
+            f"{ref['target_speed_m_s']:.2f} m/s target: no matched-speed comparison",
+        }
     if not cs or locked is None or locked.est is None:
         return {
             **base,
