@@ -30,14 +30,19 @@ def lcm_run(tmp_path_factory):
     The logger listens with the node's URL (its 2 MB receive buffer: a descheduled logger drops less)."""
     out = tmp_path_factory.mktemp("lcm_run")
     py = shlex.quote(sys.executable)
-    url = shlex.quote(channels.DEFAULT_URL)
+    # the logger gets the largest receive buffer the namespace allows (net.core.rmem_max, 4 MiB here) and,
+    # where the caller may raise priorities (root), a higher one: at load it is the process most likely to
+    # be descheduled long enough for its socket to overflow (seen: 86 of 2000 feedback datagrams lost)
+    url = shlex.quote(channels.DEFAULT_URL.replace("recv_buf_size=2097152", "recv_buf_size=4194304"))
     exp = f"--experiment static --kx {K} --period {PERIOD} --cycles 1"
     script = f"""
 export PYTHONPATH={shlex.quote(str(ROOT))}
 {py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 2 --soft-start 0 \
     --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
 NODE=$!
-{shlex.quote(lcm_tool("lcm-logger"))} -q --lcm-url={url} -f {out}/session.lcmlog > {out}/logger.out 2>&1 &
+NICE=""; nice -n -5 true 2>/dev/null && NICE="nice -n -5"
+$NICE {shlex.quote(lcm_tool("lcm-logger"))} -q --lcm-url={url} -f {out}/session.lcmlog \
+    > {out}/logger.out 2>&1 &
 LOGGER=$!
 {py} -m sparc_quad bench-robot --clock lockstep {exp} --out {out} > {out}/robot.out 2> {out}/robot.err
 wait $NODE
