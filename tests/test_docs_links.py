@@ -1,6 +1,7 @@
 """Every relative link in README.md, CHANGELOG.md and docs/**/*.md points at a file that exists, and a
 #fragment at a heading of that file (GitHub's anchor rule), so moving a document or renaming a heading
-cannot leave a dead link behind."""
+cannot leave a dead link behind; every repository file named in backticks (`tests/...py`, `bench/...py`)
+exists, so moving a test or a script cannot leave a stale path behind."""
 
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ INLINE_CODE = re.compile(r"`[^`\n]*`")
 LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 HEADING = re.compile(r"^#{1,6}\s+(.*?)\s*#*\s*$", re.M)
 EXTERNAL = re.compile(r"^[a-z][a-z0-9+.-]*:", re.I)  # http:, https:, mailto:, ...
+REPO_PATH = re.compile(r"`((?:tests|sparc_quad|spine_module|bench|robots|studies|lcm_types|docs)/[\w./-]+"
+                       r"\.(?:py|toml|md|json|urdf|xml|lcm))(?:::\w+)?`")
 
 
 def prose(text: str) -> str:
@@ -61,9 +64,19 @@ def broken(path: Path) -> list[str]:
     return bad
 
 
+def stale_paths(path: Path, root: Path = ROOT) -> list[str]:
+    text = FENCE.sub("", path.read_text(encoding="utf-8"))
+    return [p for p in REPO_PATH.findall(text) if not (root / p).exists()]
+
+
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
 def test_relative_links_resolve(doc):
     assert broken(doc) == []
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_named_repository_files_exist(doc):
+    assert stale_paths(doc) == []
 
 
 def test_the_checker_catches_a_dead_file_and_a_dead_anchor(tmp_path):
@@ -74,3 +87,11 @@ def test_the_checker_catches_a_dead_file_and_a_dead_anchor(tmp_path):
                    "[gone](missing.md) [bad anchor](b.md#nope) [self](#nope)\n")
     assert broken(doc) == ["missing.md: no such file", "b.md#nope: no heading #nope in b.md",
                            "#nope: no heading #nope in a.md"]
+
+
+def test_the_checker_catches_a_moved_file(tmp_path):
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "test_here.py").write_text("")
+    doc = tmp_path / "a.md"
+    doc.write_text("`tests/test_here.py::test_x` and `tests/test_gone.py`; out/bench/x.json is not a path\n")
+    assert stale_paths(doc, tmp_path) == ["tests/test_gone.py"]
