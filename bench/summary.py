@@ -15,8 +15,8 @@ Row = tuple[str, str, Callable[[dict], float | None], str, Callable[[float], boo
 ROWS: list[Row] = [
     ("control_step", "impedance step / rnea", lambda r: r["impedance_over_rnea"], "<= 3", lambda v: v <= 3.0),
     ("control_step", "PD step / rnea", lambda r: r["pd_over_rnea"], "<= 3", lambda v: v <= 3.0),
-    ("node_tick", "node tick / rnea (CPU time)", lambda r: r["node_tick_over_rnea"], "<= 60",
-     lambda v: v <= 60.0),
+    ("node_tick", "node tick / rnea (CPU time)", lambda r: r["node_tick_over_rnea"], "<= 50",
+     lambda v: v <= 50.0),
     ("can_loop", "CAN paced loop rate / 1 kHz, 3 motors", lambda r: r["paced"]["rate_ratio"], "0.99..1.01",
      lambda v: 0.99 <= v <= 1.01),
     ("can_loop", "  host ceiling: same clock, no bus, same CPU",
