@@ -318,6 +318,9 @@ def plot_cost_vs_speed(panels: list[dict], metric: str, cells: list, path: Path)
     t = panels[0].get("target_speed_m_s")
     if t is not None:
         ax.axvspan(t - 0.05, t + 0.05, color="0.9", zorder=0, label="target +- 0.05 m/s")
+    values = [c.est.value for c in mine if c.extras.get("speed_m_s") is not None]
+    if values and min(values) > 0 and max(values) > 10 * min(values):
+        ax.set_yscale("log")  # one slow, expensive cell must not flatten the rest
     step = {p["panel"]: p["config"].get("step_length") for p in panels}
     key = ", ".join(f"{m} L {1000 * step[n]:.0f} mm" if step[n] else f"{m} {n}" for n, m in markers.items())
     _finish(
