@@ -203,6 +203,9 @@ SIGTERM_CHILD = textwrap.dedent("""
         finally:
             # the stop frames are sent; wait (on the sniffer, not a guessed time) until it has seen them
             wait_for(lambda: all(stops_to(sniffer, i) > before[i] for i in (1, 2, 3)), timeout_s=30)
+            # the emulated motors read the same frames on their own thread: wait for them too (the sniffer
+            # seeing a stop does not mean the motor has acted on it yet)
+            wait_for(lambda: all(emu.motors[i].mode == P.MotorMode.RESET for i in (1, 2, 3)), timeout_s=30)
             result["new_stops"] = {i: stops_to(sniffer, i) - before[i] for i in (1, 2, 3)}
             result["modes"] = {i: int(emu.motors[i].mode) for i in (1, 2, 3)}
             result["ticks"] = ticks
