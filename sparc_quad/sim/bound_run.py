@@ -352,6 +352,12 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
     paths = []
     s = result.series
     t = result.column("t")
+    cfg = result.config
+    run = (f"{cfg.world.host} in {cfg.world.engine}, spine {variant_of(cfg)}, k_x {cfg.spine.k[0]:g} N/m, "
+           f"d_x {cfg.spine.d[0]:g} N*s/m")
+    outside = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8}  # legends off the data
+    t_end = t[-1] if len(t) else 0.0
+    t_from = max(0.0, t_end - 2.0)
     fig, ax = plt.subplots(figsize=(10, 2.6))
     for k, leg in enumerate(("HL", "HR", "FL", "FR")):
         c = result.column(f"contact_{leg}") > 0.5
@@ -360,9 +366,9 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
         ax.broken_barh(spans, (k - 0.4, 0.8), color="k")
     ax.set_yticks(range(4), ["HL", "HR", "FL", "FR"])
     ax.set_xlabel("t (s)")
-    ax.set_title("gait diagram (foot contact)")
-    t_end = t[-1] if len(t) else 0.0
-    ax.set_xlim(max(0.0, t_end - 2.0), t_end)
+    ax.set_title(f"gait diagram (foot contact), the last {t_end - t_from:.1f} s of the run "
+                 f"({t_from:.1f}-{t_end:.1f} s); {run}", fontsize=9)
+    ax.set_xlim(t_from, t_end)
     fig.tight_layout()
     paths.append(_save(fig, out / "gait_diagram.png"))
     fig, ax = plt.subplots(figsize=(10, 3.5))
@@ -371,7 +377,8 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
     ax.plot(t, result.column("pitch_front"), label="front body pitch")
     ax.set_xlabel("t (s)")
     ax.set_ylabel("rad (+ nose down)")
-    ax.legend(loc="upper right")
+    ax.set_title(f"body pitch, whole run (0-{t_end:.1f} s); {run}", fontsize=9)
+    ax.legend(**outside)
     fig.tight_layout()
     paths.append(_save(fig, out / "body_pitch.png"))
     fig, axes = plt.subplots(3, 1, figsize=(10, 6), sharex=True)
@@ -379,6 +386,7 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
         ax.plot(t, result.column(f"spine_{name}"))
         ax.set_ylabel(f"spine {name} ({unit})")
     axes[-1].set_xlabel("t (s)")
+    axes[0].set_title(f"spine task pose (front body in the hind-body frame), whole run; {run}", fontsize=9)
     fig.tight_layout()
     paths.append(_save(fig, out / "spine_task_space.png"))
     fig, ax = plt.subplots(figsize=(10, 3.5))
@@ -387,7 +395,8 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
     ax.plot(t, result.column("leg_tau_max"), lw=0.5, color="grey", label="max |leg torque|")
     ax.set_ylabel("N*m")
     ax.set_xlabel("t (s)")
-    ax.legend(loc="upper right")
+    ax.set_title(f"spine joint torques and the largest leg torque, whole run; {run}", fontsize=9)
+    ax.legend(**outside)
     fig.tight_layout()
     paths.append(_save(fig, out / "torques.png"))
     if result.frames:
