@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
+from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound_kernel import leg_fk
 from spine_module import params as P
 
@@ -91,7 +92,7 @@ class _Lowpass:
         return self.y
 
 
-class BoundController:
+class BoundController(Gait):
     """Leg torques for the bound. `step(world, t)` -> {leg: (tau_haa, tau_hfe, tau_kfe)}."""
 
     PAIRS: ClassVar[dict[str, tuple[str, str]]] = {"hind": ("HL", "HR"), "front": ("FL", "FR")}

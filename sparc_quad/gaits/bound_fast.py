@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound import BoundController
 from sparc_quad.gaits.bound_kernel import I_JQ, S_DUTY, S_PHASE, S_PITCH, S_STANCE_F, S_STANCE_H, pack
 
 
-class CompiledBoundController:
+class CompiledBoundController(Gait):
     """`BoundController` with its step in the compiled kernel: same constructor, `step(t)`, `out`,
     `stance_flags`, `phase`, `duty`, `pitch`. Raises RuntimeError where numba cannot load the kernel."""
+
+    backend = "numba"
 
     def __init__(self, world, params=None):
         try:

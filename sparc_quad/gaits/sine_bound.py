@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sparc_quad.gaits.base import Gait
 from sparc_quad.sim.control_clock import ControlClock
 from sparc_quad.sim.quadruped_world import planar_leg_ik
 
@@ -112,7 +113,7 @@ class SineBoundParams:
             raise ValueError(f"foot target {reach:.3f} m from the hip is beyond the {reach_m:.3f} m leg")
 
 
-class SineBoundController:
+class SineBoundController(Gait):
     """Leg torques of the open-loop bound. `step(t)` -> {leg: (tau_haa, tau_hfe, tau_kfe)} N*m, once per
     physics step; `observe_spine(t, x)` after it with the spine extension (m) the spine drive computed."""
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.metrics import table as metrics_table
@@ -93,7 +94,7 @@ def variant_of(cfg: BoundConfig) -> str:
 _SPINE_BACKEND = {"numba": "numba", "python": "pinocchio"}
 
 
-def make_gait(world: QuadWorld, params: BoundParams | SineBoundParams, backend: str = "python"):
+def make_gait(world: QuadWorld, params: BoundParams | SineBoundParams, backend: str = "python") -> Gait:
     """The leg controller; `backend` "numba" compiles gait B (the sine bound is cheap and stays Python)."""
     if isinstance(params, SineBoundParams):
         return SineBoundController(world, params)
@@ -135,10 +136,10 @@ def run_bound(
     world = make_world(world_cfg)
     spine = spine if spine is not None else direct_spine(cfg)
     gait = make_gait(world, cfg.gait, backend)
-    start_pose = getattr(gait, "start_pose", None)
-    if start_pose is not None and start_pose() is not None:  # a gait that starts on its trajectory
-        world.set_start(*start_pose())
-    observe_spine = getattr(gait, "observe_spine", None)
+    pose = gait.start_pose()
+    if pose is not None:  # a gait that starts on its trajectory
+        world.set_start(*pose)
+    observe_spine = gait.observe_spine
     dt = cfg.world.dt_s
     n = round(cfg.duration_s / dt)
     log = np.zeros((n, len(COLUMNS)))
@@ -213,8 +214,7 @@ def run_bound(
             set_torques(tau_s, leg_tau)
             task = spine.task_pose  # as of this step's begin: read once for the gait and the log
             task = task.tolist() if type(task) is ndarray else task
-            if observe_spine is not None:
-                observe_spine(t, float(task[0]))
+            observe_spine(t, float(task[0]))
             # log the state the torques were computed from: one row, one pack; the power and peak
             # columns are filled from the logged torques and rates after the loop (metrics.derived_columns)
             q1 = world.q1
@@ -273,7 +273,7 @@ def run_bound(
     metrics["spine_path"] = spine.name
     metrics["spine_driver"] = spine.driver
     metrics["spine_backend"] = spine.backend
-    metrics["gait_backend"] = "numba" if type(gait).__name__ == "CompiledBoundController" else "python"
+    metrics["gait_backend"] = gait.backend
     node_states = spine.node_states()
     return BoundResult(cfg, metrics, series, wall, frames, node_states)
 

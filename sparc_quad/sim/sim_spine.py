@@ -90,10 +90,9 @@ class DirectSpine:
         self._q = np.zeros(4)
         self._dq = np.zeros(4)
         self._tau: list[float] = [0.0, 0.0, 0.0]
-        self.saturated_steps = 0  # steps on which the node's torque clamp cut a command
-        # a drive with a control clock (`ScheduledDrive`) is filled and run only at its calls; its torque,
-        # held in between, is kept here as floats
-        self._tick = getattr(self.drive, "tick", None)
+        # a clocked drive (`ScheduledDrive`) is filled and run only at its calls; its torque, held in
+        # between, is kept here as floats
+        self._tick = self.drive.tick if self.drive.clocked else None
         self._held: list[float] = self.drive.tau.tolist() if self._tick is not None else []
         # joint_limit_damping_list's "every joint clear of its margin" bounds and zero-depth factor
         if self._margin > 0:
@@ -148,9 +147,7 @@ class DirectSpine:
         lim = self._tau_max
         if -lim <= a <= lim and -lim <= b <= lim and -lim <= c <= lim:
             return [a, b, c]
-        out, sat = safety.clamp_torque_list([a, b, c], lim)
-        if sat[0] or sat[1] or sat[2]:
-            self.saturated_steps += 1
+        out, _ = safety.clamp_torque_list([a, b, c], lim)
         return out
 
     def finish(self) -> list[float]:

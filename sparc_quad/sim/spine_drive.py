@@ -9,8 +9,9 @@
 
 Every drive has `step(q, dq, ddq1) -> tau`, `x`, `dx` (task pose, rate), `ok`, `name`, `actuated`
 (whether its torque is charged as actuator work), `backend` (the controller's per-step code, None for no
-controller) and `energy_j` (stored in a passive element, J). `ScheduledDrive` adds the authors' gain
-switch and a slower control rate (zero-order hold) to any drive that has `set_gains`.
+controller) and `energy_j` (stored in a passive element, J); each subclasses `SpineDrive`, which declares
+the optional clocked members. `ScheduledDrive` adds the authors' gain switch and a slower control rate
+(zero-order hold) to any drive that has `set_gains`.
 """
 
 from __future__ import annotations
@@ -33,7 +34,24 @@ SPINE_VARIANTS = ("impedance", "passive", "rigid", "rigid-impedance")
 SPINE_TIMINGS = ("hold", "authors")
 
 
-class LockedSpine:
+class SpineDrive:
+    """The members every drive shares beyond `step`, with their defaults: a drive runs at every physics
+    step (`clocked` False, `tick()` True, `update` is `step`). A clocked drive (`ScheduledDrive`) runs only
+    where `tick()` says; a caller that fills q and dq only then calls `tick` and `update` itself."""
+
+    clocked = False
+
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+        raise NotImplementedError
+
+    def tick(self) -> bool:
+        return True
+
+    def update(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+        return self.step(q, dq, ddq1)
+
+
+class LockedSpine(SpineDrive):
     """Rigid spine: the joints are locked by the world's constraints (`WorldConfig.lock_spine`); this
     drive applies no torque and only reports the (constant) task pose."""
 
@@ -68,7 +86,7 @@ class TaskKinematics:
         self.model.update_kinematics(self.data, np.asarray(q, dtype=float), np.asarray(dq, dtype=float))
 
 
-class PassiveSpine:
+class PassiveSpine(SpineDrive):
     """An ideal spring-damper between the bodies: F = K (x_d - x) - D dx in task space, tau = J^T F, plus
     (`preload`) a constant joint torque tau_0 = g(q_eq): the spine links' own weight at the level
     equilibrium arch, as a spring designed with its rest length set for that load would carry.
@@ -117,7 +135,7 @@ class PassiveSpine:
         return self.tau
 
 
-class ImpedanceSpine:
+class ImpedanceSpine(SpineDrive):
     """The SPARC impedance controller (spine_module.control) driving the spine in process.
 
     backend: "pinocchio" (the reference path; no numba loaded) or "numba" (the compiled step, equal to the
@@ -169,11 +187,13 @@ class SpineSchedule:
     z_d_m: float = 0.0
 
 
-class ScheduledDrive:
+class ScheduledDrive(SpineDrive):
     """Wraps a drive: gain/target switch at a time (optional) and a control rate below the sim's, the
     torque held between updates. `clock` (a `ControlClock`, the authors' loop): the drive runs when the
     clock calls, zero torque before its first call, the switch at the first call at or after `switch_s`;
     without it, every `hold_steps` steps from step 0."""
+
+    clocked = True
 
     def __init__(self, drive, gains: SpineGains, schedule: SpineSchedule | None, hold_steps: int,
                  dt_s: float, clock: ControlClock | None = None) -> None:
@@ -238,7 +258,7 @@ def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = Fa
                      variant: str | None = None, schedule: SpineSchedule | None = None,
                      rate_hz: float | None = None, dt_s: float = P.CONTROL_PERIOD_S,
                      backend: str = "pinocchio", timing: str = "hold",
-                     spine: P.SpineParams | None = None):
+                     spine: P.SpineParams | None = None) -> SpineDrive:
     """The drive a bound uses. `variant` is one of SPINE_VARIANTS (`rigid=True` means "rigid").
     `schedule` applies to the impedance and passive springs, `rate_hz` (a controller rate below 1/dt_s)
     to the motor-rendered impedance only: a physical spring acts continuously. `timing` "hold" updates

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.sim import bound_run
 from sparc_quad.sim.bound_run import BoundConfig, run_bound
@@ -19,7 +20,7 @@ pytest.importorskip("numba")
 REFERENCE = DATA / "bound_reference_1s.npz"
 
 
-class _Shadow:
+class _Shadow(Gait):
     """Gait B by the reference controller; the compiled one is stepped on the same states beside it."""
 
     def __init__(self, world, params):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sparc_quad.metrics import saturated
 from sparc_quad.robot_side.quad import NodeSpine
 from sparc_quad.sim.quadruped_world import EstimatorOutput
 from sparc_quad.sim.sim_spine import DirectSpine, SimSpine
@@ -54,7 +55,8 @@ def test_direct_spine_clamps_as_the_node_does():
     spine.begin(EST, q, dq, 0.0)
     tau = spine.finish()
     assert abs(tau[1]) == pytest.approx(P.TORQUE_LIMIT_NM)
-    assert spine.saturated_steps == 1
+    # the run's metrics see the clamp in the logged torque (spine_saturation_share)
+    assert saturated(np.array([tau]), P.TORQUE_LIMIT_NM)[0, 1]
 
 
 def test_direct_spine_adds_the_node_joint_limit_damping():
@@ -118,3 +120,16 @@ def test_direct_spine_limits_equal_the_node_functions_bit_for_bit():
         assert np.array_equal(np.signbit(got), np.signbit(want)), (q, dq, tau)
         cases += 1
     assert cases == 3000
+
+
+def test_clocked_drives_declare_it():
+    """DirectSpine splits `tick`/`update` only for a drive that says it is clocked; every other drive
+    inherits the defaults (runs at every step, `update` is `step`)."""
+    gains = SpineGains()
+    plain = make_spine_drive(gains)
+    assert not plain.clocked and plain.tick()
+    q, dq = np.array([0.0, *Q_EQ]), np.zeros(4)
+    assert plain.update(q, dq, 0.0).tolist() == make_spine_drive(gains).step(q, dq, 0.0).tolist()
+    held = make_spine_drive(gains, rate_hz=250.0, dt_s=1e-3)
+    assert held.clocked
+    assert [held.tick() for _ in range(8)] == [True, False, False, False] * 2
