@@ -21,6 +21,8 @@ with `unshare`, as the tests do):
    on its own torso computer would be: unpinned, Linux wakes the node on the robot's CPU (wake-affine) and
    the two alternate on one core. One unpinned run is reported beside it (`--no-unpinned` skips it). The
    LCM run's trajectory is checked against the node ticked in process (max |difference| reported).
+   Both sides poll for `--spin-us` (default 1000 us) before a lockstep wait blocks; one pinned run per
+   repeat with 0 (blocking at once) is reported beside it (`lcm_lockstep_blocking_*`).
 
     python bench/lcm_loop.py --json out/bench/lcm_loop.json [--bound-s 5 --bound-repeat 3]
 """
@@ -116,17 +118,23 @@ def _pin_cpus() -> tuple[int, int] | None:
     return cpus[-1], cpus[0]
 
 
-def lcm_bound(duration_s: float, pin: tuple[int, int] | None, keep: Path | None = None) -> float:
+def lcm_bound(duration_s: float, pin: tuple[int, int] | None, keep: Path | None = None,
+              spin_us: float | None = None) -> float:
     """Wall time of `run_bound` in the robot process (its metrics' `wall_time_s`) of a `bound --lcm` run
-    against a lockstep spine node, two processes in a network namespace; `keep`: copy its CSV there."""
+    against a lockstep spine node, two processes in a network namespace; `keep`: copy its CSV there;
+    `spin_us`: both sides' lockstep poll before blocking (None: the commands' default)."""
     py = shlex.quote(sys.executable)
     node_pin, robot_pin = (f"taskset -c {pin[0]} ", f"taskset -c {pin[1]} ") if pin else ("", "")
+    node_spin = robot_spin = ""
+    if spin_us is not None:
+        node_spin, robot_spin = f"--spin-us {spin_us:g} ", f"--lcm-spin-us {spin_us:g} "
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         script = (f"set -e\n{SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}\n"
-                  f"{node_pin}{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 "
+                  f"{node_pin}{py} -m sparc_quad spine-node --motors lcm --clock lockstep {node_spin}"
+                  "--idle-timeout 3 "
                   f"--summary {d}/node.json > /dev/null 2> {d}/node.err &\nNODE=$!\n"
-                  f"{robot_pin}{py} -m sparc_quad bound --lcm --no-plots --duration {duration_s} "
+                  f"{robot_pin}{py} -m sparc_quad bound --lcm {robot_spin}--no-plots --duration {duration_s} "
                   f"--out {d}/bound > /dev/null 2> {d}/robot.err\nwait $NODE\n")
         r = subprocess.run([*_unshare(), "sh", "-c", script], cwd=ROOT, capture_output=True, text=True,
                            timeout=600)
@@ -149,15 +157,17 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
     from sparc_quad.robot_side.quad import NodeSpine
     from sparc_quad.sim.bound_log import COLUMNS
     from sparc_quad.sim.bound_run import BoundConfig, run_bound
+    from spine_module.buses.lcm import LOCKSTEP_SPIN_S
 
     pin = _pin_cpus()
     cfg = BoundConfig(duration_s=duration_s)
-    inproc, lcm_pinned, lcm_free = [], [], []
+    inproc, lcm_pinned, lcm_free, lcm_blocking = [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         csv = Path(tmp) / "lcm.csv"
         for i in range(repeat):
             inproc.append(run_bound(cfg).wall_s)
             lcm_pinned.append(lcm_bound(duration_s, pin, keep=csv if i == 0 else None))
+            lcm_blocking.append(lcm_bound(duration_s, pin, spin_us=0.0))
         if unpinned and pin is not None:
             lcm_free.append(lcm_bound(duration_s, None))
         lcm_series = np.loadtxt(csv, delimiter=",", skiprows=1)
@@ -171,12 +181,15 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
         "in_process_bound_wall_s": best_in,
         "lcm_lockstep_bound_wall_s": best_lcm,
         "lcm_lockstep_over_in_process": best_in / best_lcm,
+        "lcm_lockstep_spin_us": LOCKSTEP_SPIN_S * 1e6,
+        "lcm_lockstep_blocking_over_in_process": best_in / min(lcm_blocking),
         "lcm_lockstep_us_per_tick_over_in_process": 1e6 * (best_lcm - best_in) / round(duration_s * 1000),
         "lcm_pinned_cpus_node_robot": list(pin) if pin else None,
         "lcm_lockstep_unpinned_wall_s": min(lcm_free) if lcm_free else None,
         "lcm_lockstep_unpinned_over_in_process": best_in / min(lcm_free) if lcm_free else None,
         "lcm_vs_node_in_process_max_abs_diff": diff,
-        "bound_all_runs_s": {"in_process": inproc, "lcm_lockstep": lcm_pinned, "lcm_unpinned": lcm_free},
+        "bound_all_runs_s": {"in_process": inproc, "lcm_lockstep": lcm_pinned,
+                             "lcm_lockstep_blocking": lcm_blocking, "lcm_unpinned": lcm_free},
     }
 
 

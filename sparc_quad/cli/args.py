@@ -62,6 +62,7 @@ SIM_DURATION_MAX_S = 600.0  # simulated runs keep their whole log in memory at 1
 WALL_DURATION_MAX_S = 7 * 86400.0  # runs that keep no log (node, emulator, watchdog, spine-cmd): a week
 WAIT_MAX_S = 3600.0  # waits for a peer or a reply
 SEED_MAX = 2**32 - 1  # numpy's and pybullet's seed range
+SPIN_MAX_US = 100_000.0  # a lockstep poll longer than 0.1 s is a busy loop, not a wait
 
 
 positive_float = in_range(0.0, lo_open=True)
@@ -75,6 +76,18 @@ wall_duration = in_range(0.0, WALL_DURATION_MAX_S, lo_open=True)
 wait_s = in_range(0.0, WAIT_MAX_S, lo_open=True)
 loop_rate = in_range(0.0, LOOP_RATE_MAX_HZ, lo_open=True)
 node_rate = in_range(NODE_RATE_MIN_HZ, LOOP_RATE_MAX_HZ)
+spin_us = in_range(0.0, SPIN_MAX_US)
+
+
+def add_spin_option(p: argparse.ArgumentParser, flag: str = "--spin-us") -> None:
+    """The lockstep poll-before-block option (`spine_module.buses.lcm.handle`), one spelling everywhere."""
+    from spine_module.buses.lcm import LOCKSTEP_SPIN_S
+
+    p.add_argument(flag, type=spin_us, default=LOCKSTEP_SPIN_S * 1e6, metavar="US",
+                   help="lockstep over LCM: poll for the peer's next message for up to this many "
+                        "microseconds before blocking (a blocked wait lets the CPU idle, and waking it "
+                        f"costs each message tens of us on a VM); 0 blocks at once; at most {SPIN_MAX_US:g} "
+                        "(default: %(default)s)")
 
 
 def nonempty(text: str) -> str:

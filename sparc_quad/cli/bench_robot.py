@@ -11,7 +11,7 @@ import logging
 
 import numpy as np
 
-from sparc_quad.cli.args import SIM_DURATION_MAX_S, lcm_url, output_dir, sim_duration, wait_s
+from sparc_quad.cli.args import SIM_DURATION_MAX_S, add_spin_option, lcm_url, output_dir, sim_duration, wait_s
 from sparc_quad.cli.errors import BadInput
 from sparc_quad.cli.experiment import add_experiment_args, plant, script
 from sparc_quad.cli.signals import stop_on_signals
@@ -31,6 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime",
                    help="realtime: step the world at 1 kHz of wall time; lockstep: one step per motor "
                         "command from the node (as fast as both can go)")
+    add_spin_option(r)
     r.add_argument("--duration", type=sim_duration, default=None,
                    help=f"seconds of robot time, at most {SIM_DURATION_MAX_S:g} (default: the script's)")
     r.add_argument("--wait-node", type=wait_s, default=30.0,
@@ -52,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 
     s = script(args)
     try:
-        port = LcmPort(args.lcm_url)
+        port = LcmPort(args.lcm_url, spin_s=args.spin_us * 1e-6 if args.clock == "lockstep" else 0.0)
     except RuntimeError as exc:
         raise BadInput(f"cannot open LCM at {args.lcm_url!r} (a multicast route is needed, see docs): "
                        f"{exc}") from exc

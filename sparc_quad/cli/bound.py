@@ -15,6 +15,7 @@ from sparc_quad.cli.args import (
     SIM_DURATION_MAX_S,
     WAIT_MAX_S,
     add_gain_options,
+    add_spin_option,
     damping,
     fraction_open,
     in_range,
@@ -113,6 +114,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "lockstep unless --realtime")
     p.add_argument("--lcm-url", type=lcm_url, default=channels.DEFAULT_URL,
                    help="--lcm: LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
+    add_spin_option(p, "--lcm-spin-us")
     p.add_argument("--wait-node", type=wait_s, default=30.0,
                    help=f"--lcm: wait this long (wall s, up to {WAIT_MAX_S:g}) for the node's first "
                         "heartbeat")
@@ -225,6 +227,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             spine = NodeSpine.over_lcm(cfg.spine, cfg.friction_compensation, url=args.lcm_url,
                                        lockstep=not args.realtime, wait_node_s=args.wait_node,
+                                       spin_s=args.lcm_spin_us * 1e-6,
                                        schedule=cfg.spine_schedule, torso_accel=cfg.spine_torso_accel)
         except TimeoutError as exc:
             raise BadInput(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` "

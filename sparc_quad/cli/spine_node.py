@@ -19,6 +19,7 @@ from sparc_quad.cli.args import (
     NODE_RATE_MIN_HZ,
     SIM_DURATION_MAX_S,
     add_can_options,
+    add_spin_option,
     can_options,
     in_range,
     lcm_url,
@@ -55,6 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f"control rate, Hz, {NODE_RATE_MIN_HZ:g}..{P.CONTROL_RATE_HZ:g}")
     p.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime",
                    help="realtime: fixed-rate loop; lockstep: one step per motor feedback tick")
+    add_spin_option(p)
     p.add_argument("--duration", type=wall_duration, default=None,
                    help="stop after this many seconds of node time (default: until Ctrl-C; inprocess: "
                         f"the script's, at most {SIM_DURATION_MAX_S:g} s)")
@@ -108,7 +110,7 @@ def _bus_options(args: argparse.Namespace) -> dict[str, object]:
     if args.motors == "can":
         return can_options(args)
     if args.motors == "lcm":
-        return {"url": args.lcm_url}
+        return {"url": args.lcm_url, "spin_s": args.spin_us * 1e-6 if args.clock == "lockstep" else 0.0}
     return {}
 
 

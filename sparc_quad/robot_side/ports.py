@@ -17,6 +17,7 @@ import lcm
 import numpy as np
 
 from spine_module.buses.inprocess import InProcessLink
+from spine_module.buses.lcm import handle as lcm_handle
 from spine_module.messages import (
     Heartbeat,
     MessageError,
@@ -108,7 +109,13 @@ class LcmPort(Port):
     arrive, spine states when `states` decodes them (read `states`, or `drain_states`, first for a full
     count). Reading `rejected` changes nothing."""
 
-    def __init__(self, url: str = "", lc: lcm.LCM | None = None, keep_states: bool = True) -> None:
+    def __init__(self, url: str = "", lc: lcm.LCM | None = None, keep_states: bool = True,
+                 spin_s: float = 0.0) -> None:
+        """`spin_s`: a lockstep wait for the node's answer polls this long before it blocks
+        (`spine_module.buses.lcm.handle`)."""
+        if not spin_s >= 0.0:
+            raise ValueError(f"spin_s must be >= 0 s, got {spin_s!r}")
+        self.spin_s = spin_s
         self.lc = lc if lc is not None else lcm.LCM(url)
         self._cmd: tuple[MotorCommand, int] | None = None
         self._hbs: list[Heartbeat] = []
@@ -176,7 +183,7 @@ class LcmPort(Port):
                 if self._cmd is not None and (want_seq is None or self._cmd[1] == want_seq):
                     continue
                 return None
-            self.lc.handle_timeout(max(1, int(remaining * 1000)))
+            lcm_handle(self.lc, remaining, self.spin_s)
 
     def node_heartbeats(self) -> list[Heartbeat]:
         while self.lc.handle_timeout(0) > 0:

@@ -7,10 +7,16 @@ raises `MotorBusError` from `receive` with the `MessageError` (naming the field)
 
 Pass `lc` to share one `lcm.LCM` with the node's other channels: messages then dispatch in the order the
 robot sent them (torso state before the motor feedback of the same tick), which lockstep relies on.
+
+`spin_s`: a lockstep wait polls for up to this long before it blocks (`handle`). A blocked thread lets
+its CPU go idle, and waking an idle CPU is what a lockstep round trip pays for on every message: on the
+2-vCPU KVM guest the project is measured on, a publish that wakes the other side costs 40-70 us against
+~3 us to a receiver that is awake (docs/performance.md, "LCM lockstep").
 """
 
 from __future__ import annotations
 
+import os
 import time
 
 import lcm
@@ -23,13 +29,35 @@ from spine_module.messages import channels, codec
 MAX_MESSAGES_PER_RECEIVE = 64
 RECEIVE_BUDGET_S = 0.0005  # and spends at most this long dispatching beyond its own timeout
 QUEUE_CAPACITY = 16  # per subscription, for LCM's UDP provider (LCM drops what does not fit)
+LOCKSTEP_SPIN_S = 0.001  # the default poll before a lockstep wait blocks: covers a simulated robot's step
+
+
+def handle(lc: lcm.LCM, timeout_s: float, spin_s: float = 0.0) -> int:
+    """Dispatch at most one LCM message, waiting at most `timeout_s`: polling (yielding the CPU to any
+    other runnable thread between polls) for the first `spin_s` of it, blocking for the rest. Returns
+    LCM's `handle_timeout` result (> 0: a message was dispatched)."""
+    if spin_s > 0.0:
+        clock = time.perf_counter
+        end = clock() + min(spin_s, timeout_s)
+        poll, yield_cpu = lc.handle_timeout, os.sched_yield
+        while True:
+            got = poll(0)
+            if got != 0:
+                return got
+            if clock() >= end:
+                break
+            yield_cpu()
+        timeout_s -= spin_s
+        if timeout_s <= 0.0:
+            return 0
+    return lc.handle_timeout(max(1, int(timeout_s * 1000)))
 
 
 class LcmMotorBus(MotorBus):
     def __init__(self, url: str = "", lc: lcm.LCM | None = None,
                  command_channel: str = channels.MOTOR_COMMAND,
                  feedback_channel: str = channels.MOTOR_FEEDBACK,
-                 max_messages: int = MAX_MESSAGES_PER_RECEIVE) -> None:
+                 max_messages: int = MAX_MESSAGES_PER_RECEIVE, spin_s: float = 0.0) -> None:
         try:
             self.lc = lc if lc is not None else lcm.LCM(url)
         except (OSError, RuntimeError) as exc:
@@ -42,6 +70,9 @@ class LcmMotorBus(MotorBus):
         self._sub = self.lc.subscribe(feedback_channel, self._on_feedback)
         self._sub.set_queue_capacity(QUEUE_CAPACITY)
         self.max_messages = max_messages
+        if not spin_s >= 0.0:
+            raise ValueError(f"spin_s must be >= 0 s, got {spin_s!r}")
+        self.spin_s = spin_s
         self.handled_last = 0  # LCM messages the last receive() dispatched (<= max_messages)
 
     def _on_feedback(self, channel: str, data: bytes) -> None:
@@ -78,7 +109,7 @@ class LcmMotorBus(MotorBus):
                     break
                 n += 1
                 continue
-            n += self.lc.handle_timeout(max(1, int(remaining * 1000))) > 0
+            n += handle(self.lc, remaining, self.spin_s) > 0
         self.handled_last = n
         if self._error is not None:
             err, self._error = self._error, None
