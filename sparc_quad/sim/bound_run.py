@@ -24,7 +24,7 @@ from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
-from sparc_quad.sim.quadruped_world import QuadWorld, WorldConfig, make_world
+from sparc_quad.sim.quadruped_world import HELD_STATE, QuadWorld, WorldConfig, make_world
 from sparc_quad.sim.sim_spine import DirectSpine, SimSpine
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
 from spine_module import params as P
@@ -107,6 +107,33 @@ def make_gait(world: QuadWorld, params: BoundParams | SineBoundParams, backend: 
 
 PROFILE_PHASES = ("read", "spine", "gait", "log", "physics", "other")
 
+# A held step's log row: the world packs HELD_STATE; the loop packs HELD_AUX (after the index of the row whose
+# torques and stance the step holds); HELD_KEPT is copied from that row; the power and peak columns are
+# derived after the loop, as for every row.
+HELD_AUX = ("t", "q1_est", "dq1_est", "ddq1_est", "pitch_front", "spine_x", "spine_z", "spine_theta",
+            "gait_phase", "gait_frequency_hz", "spine_spring_energy_j")
+HELD_KEPT = ("tau2", "tau3", "tau4", "stance_hind", "stance_front",
+             *(c for c in COLUMNS if c.startswith("tau_")))
+_DERIVED = ("leg_power_w", "spine_power_w", "leg_tau_max")
+if sorted((*HELD_STATE, *HELD_AUX, *HELD_KEPT, *_DERIVED)) != sorted(COLUMNS):
+    raise RuntimeError("a held step's row must cover every log column once (bound_run.HELD_*)")
+_COL = {c: k for k, c in enumerate(COLUMNS)}
+_HELD_STATE_COLS = [_COL[c] for c in HELD_STATE]
+_HELD_AUX_COLS = [_COL[c] for c in HELD_AUX]
+_HELD_KEPT_COLS = [_COL[c] for c in HELD_KEPT]
+
+
+def fill_held_rows(series: np.ndarray, state: np.ndarray, aux: np.ndarray) -> None:
+    """Complete the held steps' rows of `series` in place: `aux[:, 0]` is the index of the row each holds
+    (-1: a row the loop packed in full), `aux[:, 1:]` its HELD_AUX values, `state` its HELD_STATE values."""
+    rows = np.flatnonzero(aux[:, 0] >= 0.0)
+    if not len(rows):
+        return
+    src = aux[rows, 0].astype(np.intp)
+    series[np.ix_(rows, _HELD_STATE_COLS)] = state[rows]
+    series[np.ix_(rows, _HELD_AUX_COLS)] = aux[rows, 1:]
+    series[np.ix_(rows, _HELD_KEPT_COLS)] = series[np.ix_(src, _HELD_KEPT_COLS)]
+
 
 def run_bound(
     cfg: BoundConfig,
@@ -116,6 +143,7 @@ def run_bound(
     video: bool = False,
     profile: dict[str, float] | None = None,
     stop: Callable[[], bool] | None = None,
+    held_steps: bool = True,
 ) -> BoundResult:
     """Simulate `cfg.duration_s` of bounding. `spine` (a `SimSpine`) defaults to the run's spine called in
     process (`direct_spine(cfg)`). `on_frame(world)` is called every `frame_every_s`; `video` collects frames
@@ -124,7 +152,8 @@ def run_bound(
     leg states read, log row), physics (world.step: stepSimulation + state refresh), other (fall
     check); when None the loop takes no
     timestamps. `stop()`, when given, is asked before each step; True raises KeyboardInterrupt there (the
-    CLI's Ctrl-C: the exception is raised in this loop, never inside an extension's call)."""
+    CLI's Ctrl-C: the exception is raised in this loop, never inside an extension's call). `held_steps`
+    False runs every step through the full path (the reference the held steps are tested against)."""
     frames: list = []
     if video:
         on_frame, frame_every_s = (lambda w: frames.append(w.render())), 1.0 / VIDEO_FPS
@@ -180,6 +209,22 @@ def run_bound(
     # doubles numpy's row assignment makes, without the temporary array)
     row = struct.Struct(f"{len(COLUMNS)}d")
     pack_row, row_bytes = row.pack_into, row.size
+    # Held steps: between the gait's control calls (the authors' clock), with the spine's torque what the
+    # engine already has, the engine steps with its controls as they are (`world.step_held`, which packs
+    # the state the log needs) and the loop packs the rest of the row (`aux`); the rows are completed
+    # after the loop (`fill_held_rows`). Same numbers as the full path (tests/sparc_quad/sim/
+    # test_held_steps.py); the full path runs whenever profiling, frames, real time or latency need it.
+    holds = (held_steps and isinstance(gait, SineBoundController) and gait.clock is not None
+             and not latency and not prof and not frame_every and not realtime)
+    gait_due = gait.due if holds else None
+    held_state = np.zeros((n + 1 if holds else 0, len(HELD_STATE)))  # row i: the state before step i
+    aux = np.full((n if holds else 0, 1 + len(HELD_AUX)), -1.0)
+    pack_aux = struct.Struct(f"{1 + len(HELD_AUX)}d").pack_into
+    state_bytes, aux_bytes = 8 * len(HELD_STATE), 8 * (1 + len(HELD_AUX))
+    step_held = world.step_held
+    applied = None  # the spine torque list the engine has (None: none set yet)
+    lean = False  # the world's state is a held step's (read() before the full path uses it)
+    last_full = -1
     t0 = time.perf_counter()
     i = 0
     try:
@@ -198,6 +243,11 @@ def run_bound(
             if prof:
                 c0 = clock()
                 profile["spine"] += c0 - c1
+            if holds:
+                due = gait_due()
+                if due and lean:  # the gait reads the whole state at its calls
+                    world.read()
+                    lean = False
             leg_tau = gait_step(t)
             if prof:
                 c1 = clock()
@@ -207,33 +257,49 @@ def run_bound(
                 c0 = c1
                 c1 = clock()
                 profile["spine"] += c1 - c0
-            if latency:  # what the actuators apply now was commanded `latency` steps ago
-                pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
-                tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
-            tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
-            set_torques(tau_s, leg_tau)
-            task = spine.task_pose  # as of this step's begin: read once for the gait and the log
-            task = task.tolist() if type(task) is ndarray else task
-            observe_spine(t, float(task[0]))
-            # log the state the torques were computed from: one row, one pack; the power and peak
-            # columns are filled from the logged torques and rates after the loop (metrics.derived_columns)
-            q1 = world.q1
-            cf = world.contact_force
-            pack_row(log, i * row_bytes, t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
-                       q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
-                       *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
-                       flags["hind"], flags["front"], 0.0, 0.0, 0.0,
-                       *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
-                       gait_phase(), gait_frequency(), spine.energy_j)
-            if frame_every and i % frame_every == 0 and on_frame is not None:
-                on_frame(world)
-            if prof:
-                c0 = clock()
-                profile["log"] += c0 - c1
-            world_step()
-            if prof:
-                c1 = clock()
-                profile["physics"] += c1 - c0
+            if holds and not due and type(tau_s) is list and tau_s == applied:
+                task = spine.task_pose
+                task = task.tolist() if type(task) is ndarray else task
+                if not lean:  # the state was read in full (a full step before this one)
+                    world.pack_held(held_state, i * state_bytes)
+                pack_aux(aux, i * aux_bytes, last_full, t, est.q1, est.dq1, est.ddq1, world.q1 + sum(q_sp),
+                         *task, gait_phase(), gait_frequency(), spine.energy_j)
+                step_held(held_state, (i + 1) * state_bytes)
+                lean = True
+            else:
+                if lean:
+                    world.read()
+                    lean = False
+                last_full = i
+                if latency:  # what the actuators apply now was commanded `latency` steps ago
+                    pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
+                    tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
+                tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
+                set_torques(tau_s, leg_tau)
+                applied = tau_s
+                task = spine.task_pose  # as of this step's begin: read once for the gait and the log
+                task = task.tolist() if type(task) is ndarray else task
+                observe_spine(t, float(task[0]))
+                # log the state the torques were computed from: one row, one pack; the power and peak
+                # columns are filled from the logged torques and rates after the loop
+                # (metrics.derived_columns)
+                q1 = world.q1
+                cf = world.contact_force
+                pack_row(log, i * row_bytes, t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
+                           q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
+                           *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+                           flags["hind"], flags["front"], 0.0, 0.0, 0.0,
+                           *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
+                           gait_phase(), gait_frequency(), spine.energy_j)
+                if frame_every and i % frame_every == 0 and on_frame is not None:
+                    on_frame(world)
+                if prof:
+                    c0 = clock()
+                    profile["log"] += c0 - c1
+                world_step()
+                if prof:
+                    c1 = clock()
+                    profile["physics"] += c1 - c0
             if realtime:
                 lag = t0 + world.t - time.perf_counter()
                 if lag > 0:
@@ -257,6 +323,8 @@ def run_bound(
         world.close()
         spine.close()
     series = log[:i]
+    if holds:
+        fill_held_rows(series, held_state[:i], aux[:i])
     metrics_table.derived_columns(series)
     # metrics end at the first fall: what a fallen robot does afterwards (stop_on_fall=False) is no gait
     measured = series[: max(1, round(fall_t / dt))] if fell and fall_t is not None else series
@@ -270,6 +338,7 @@ def run_bound(
     metrics = metrics_table.merge_disjoint(facts, metrics_table.measure(measured, ctx, t_start))
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
+    metrics["held_steps"] = int((aux[:i, 0] >= 0.0).sum()) if holds else 0  # steps through `step_held`
     metrics["spine_path"] = spine.name
     metrics["spine_driver"] = spine.driver
     metrics["spine_backend"] = spine.backend

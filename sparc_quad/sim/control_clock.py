@@ -32,3 +32,8 @@ class ControlClock:
             self.calls += 1
             return True
         return False
+
+    def due(self) -> bool:
+        """Whether the next `tick()` calls the controller (its own float arithmetic, nothing advanced): a
+        loop that skips state reads between calls asks this to read in full before a call."""
+        return self._next_now - self.last_call_s >= self.period_s

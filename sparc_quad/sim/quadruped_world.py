@@ -18,6 +18,7 @@ import collections
 import json
 import math
 import operator
+import struct
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from sparc_quad.robots import ROBOTS_DIR
+from sparc_quad.sim.bound_log import LEG_JOINTS, LEGS
 from sparc_quad.sim.hosts import DEFAULT_HOST, host_files
 from sparc_quad.sim.imu import ImuConfig
 from spine_module import params as P
@@ -112,6 +114,11 @@ class LegState:
     dhaa: float
     contact: bool
 
+
+# what `QuadWorld.step_held` packs per step, named as the bound log's columns (sparc_quad.sim.bound_log)
+HELD_STATE = ("x", "y", "z", "q1_true", "dq1_true", "roll", "yaw", "q2", "q3", "q4", "dq2", "dq3", "dq4",
+              *(f"contact_{leg}" for leg in LEGS), *(f"dq_{j}" for j in LEG_JOINTS))
+PACK_HELD = struct.Struct(f"{len(HELD_STATE)}d").pack_into
 
 ABSENT = -1  # the joint index of a leg joint the robot does not have (the spined dog's abduction)
 
@@ -261,6 +268,21 @@ class QuadWorld(ABC):
     @abstractmethod
     def step(self) -> None:
         """Apply the torques, advance one dt, refresh the state."""
+
+    def step_held(self, out, offset: int) -> None:
+        """Advance one dt with the torques of the last `step` unchanged (a controller holding its output
+        between calls) and pack the new state's `HELD_STATE` values as doubles into the buffer `out` at byte
+        `offset`. Afterwards t, steps, q1, dq1, roll, q_spine, dq_spine and body_contact are current; a
+        backend may leave the other state attributes stale until `read()`. This default is `step` in full."""
+        self.step()
+        self.pack_held(out, offset)
+
+    def pack_held(self, out, offset: int) -> None:
+        """Pack the present state's `HELD_STATE` values (as read in full) into `out` at byte `offset`."""
+        cf = self.contact_force
+        PACK_HELD(out, offset, *self.base_pos, self.q1, self.dq1, self.roll, self.yaw, *self.q_spine,
+                  *self.dq_spine, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+                  *self.leg_rates())
 
     @abstractmethod
     def close(self) -> None: ...

@@ -15,6 +15,7 @@ After `mj_step` the positions and velocities are the new state; the contacts are
 from __future__ import annotations
 
 import math
+import operator
 import struct
 import time
 from pathlib import Path
@@ -26,6 +27,7 @@ from sparc_quad.robots import ROBOTS_DIR
 from sparc_quad.sim import spined_dog
 from sparc_quad.sim.quadruped_world import (
     ABSENT,
+    PACK_HELD,
     QuadWorld,
     WorldConfig,
     quat_about_y,
@@ -67,6 +69,13 @@ def _from_urdf(path: Path, meta: dict) -> mujoco.MjSpec:
         spec.add_actuator(name=f"motor_{j.name}", target=j.name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
                           ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE, ctrlrange=[-lim, lim])
     return spec
+
+
+def _rotation(qw: float, qx: float, qy: float, qz: float) -> tuple[float, ...]:
+    """Row-major rotation matrix (9 floats) of a unit quaternion."""
+    return (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
+            2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx),
+            2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy))
 
 
 def _quat_wxyz(xyzw) -> list[float]:
@@ -140,6 +149,14 @@ class MujocoWorld(QuadWorld):
         self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self._ctrl_all = isinstance(self._ctrl_idx, slice) and self._ctrl.flags.c_contiguous
         self._pack_ctrl = struct.Struct(f"{m.nu}d").pack_into
+        # step_held's reads straight from the qpos / qvel lists: the spine's q and dq, the 12 leg rates
+        # (an absent joint reads the 0.0 appended past qvel's end)
+        qadr = self._qadr_list
+        dadr = self._dadr_list
+        self._held_q = operator.itemgetter(*(qadr[p] for p in self._spine_pos))
+        self._held_dq = operator.itemgetter(*(dadr[p] for p in self._spine_pos))
+        self._held_legs = operator.itemgetter(*(dadr[self.pos_in_movable[j]] if j != ABSENT else m.nv
+                                                for k in ("HL", "HR", "FL", "FR") for j in self.leg_idx[k]))
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
         if cfg.init_vx_m_s:
             self.data.qvel[0] = cfg.init_vx_m_s
@@ -173,14 +190,11 @@ class MujocoWorld(QuadWorld):
 
     # ---- state ---------------------------------------------------------------------------------------
     def read(self) -> None:
-        d = self.data
         qp = self._qpos.tolist()  # one conversion each, then plain floats (the per-step cost is Python's)
         qv = self._qvel.tolist()
         px, py, pz, qw, qx, qy, qz = qp[:7]
         vx, vy, vz, wx, wy, wz = qv[:6]
-        rot = (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
-               2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx),
-               2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy))
+        rot = _rotation(qw, qx, qy, qz)
         self.base_pos = (px, py, pz)
         self.base_vel = (vx, vy, vz)  # the free joint's linear velocity: of the frame origin, world axes
         self.base_quat = (qx, qy, qz, qw)
@@ -203,6 +217,11 @@ class MujocoWorld(QuadWorld):
         a, b, c = self._spine_pos
         self.q_spine = [jq[a], jq[b], jq[c]]
         self.dq_spine = [jdq[a], jdq[b], jdq[c]]
+        self._read_contacts()
+
+    def _read_contacts(self) -> None:
+        """contact_force, other_contact, body_contact from the contacts the last step solved."""
+        d = self.data
         self.contact_force = force = dict.fromkeys(self.legs, 0.0)
         self.other_contact = False
         self.body_contact = False
@@ -236,18 +255,43 @@ class MujocoWorld(QuadWorld):
                     force[key] += float(cf[0])
 
     def step(self) -> None:
-        d = self.data
         tau = self._tau if not self._pad else self._tau[:self.n_engine_joints]
         if self._ctrl_all:  # packed as doubles into ctrl's buffer (the same conversion numpy makes)
             self._pack_ctrl(self._ctrl, 0, *tau)
         else:
             self._ctrl[self._ctrl_idx] = tau
+        self._mj_step()
+        self.read()
+
+    def _mj_step(self) -> None:
         t0 = time.perf_counter()
-        mujoco.mj_step(self.model, d)
+        mujoco.mj_step(self.model, self.data)
         self.physics_wall_s += time.perf_counter() - t0
         self.steps += 1
         self.t = self.steps * self.cfg.dt_s
-        self.read()
+
+    def step_held(self, out, offset: int) -> None:
+        """`QuadWorld.step_held` without the torque copy (mj_step leaves ctrl as it was) and with `read`'s
+        arithmetic for only what the held step needs: base_rot, base_omega, base_vel, base_quat, jq and jdq
+        are left stale (yaw, leg rates and contacts are packed), until `read()`."""
+        self._mj_step()
+        qp = self._qpos.tolist()
+        qv = self._qvel.tolist()
+        qw, qx, qy, qz = qp[3:7]
+        wx, wy, wz = qv[3:6]
+        rot = _rotation(qw, qx, qy, qz)
+        self.q1 = q1 = math.atan2(-rot[6], rot[0])
+        self.dq1 = dq1 = rot[3] * wx + rot[4] * wy + rot[5] * wz
+        self.roll = roll = math.atan2(rot[7], rot[8])
+        self.yaw = yaw = math.atan2(rot[3], rot[0])
+        self.base_pos = pos = (qp[0], qp[1], qp[2])
+        self.q_spine = q_sp = list(self._held_q(qp))
+        self.dq_spine = dq_sp = list(self._held_dq(qv))
+        self._read_contacts()
+        cf = self.contact_force
+        qv.append(0.0)
+        PACK_HELD(out, offset, *pos, q1, dq1, roll, yaw, *q_sp, *dq_sp, cf["HL"] > 0.0, cf["HR"] > 0.0,
+                  cf["FL"] > 0.0, cf["FR"] > 0.0, *self._held_legs(qv))
 
     def close(self) -> None:
         renderer = getattr(self, "_renderer", None)
