@@ -26,11 +26,11 @@ import numpy as np
 
 from sparc_quad.gap.import_util import (
     LogImportError,
+    add_decimate_and_window,
     decimate,
     find_source,
     importer_main,
     read_table,
-    time_window,
     write_trial_csv,
 )
 
@@ -132,10 +132,7 @@ def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
                    help="output folder for the trials and panda.urdf")
     p.add_argument("--rate", type=rate, default=1000.0,
                    help="uniform resampling rate, Hz")
-    p.add_argument("--decimate", type=factor, default=1,
-                   help="decimation factor after resampling")
-    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
-                   help="time window in s (repeatable; default the whole 21 s log)")
+    add_decimate_and_window(p, factor, "decimation factor after resampling", " 21 s")
 
 
 def run(args: argparse.Namespace) -> list[Path]:

@@ -31,11 +31,11 @@ import numpy as np
 
 from sparc_quad.gap.import_util import (
     LogImportError,
+    add_decimate_and_window,
     decimate,
     find_source,
     importer_main,
     read_table,
-    time_window,
     write_trial_csv,
 )
 
@@ -144,10 +144,7 @@ def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
                    help="folder with pos_read_data.csv and curr_data.csv (optionally .xz/.gz)")
     p.add_argument("--out", type=out, required=True, help="output folder for the trials")
     p.add_argument("--urdf", type=Path, default=None, help=f"the TX40 URDF (default: SOURCE/../{URDF_NAME})")
-    p.add_argument("--decimate", type=factor, default=1,
-                   help="decimation factor (1: as recorded)")
-    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
-                   help="time window in s (repeatable; default the whole log)")
+    add_decimate_and_window(p, factor, "decimation factor (1: as recorded)", "")
 
 
 def run(args: argparse.Namespace) -> list[Path]:

@@ -75,6 +75,14 @@ def time_window(text: str) -> tuple[float, float]:
         raise argparse.ArgumentTypeError(f"window must be START:END in seconds, got {text!r}") from None
 
 
+def add_decimate_and_window(p: argparse.ArgumentParser, factor: Callable[[str], int], decimate_help: str,
+                            whole_log: str) -> None:
+    """`--decimate` and `--window`, spelled once for every importer; `whole_log` names the default window."""
+    p.add_argument("--decimate", type=factor, default=1, help=decimate_help)
+    p.add_argument("--window", type=time_window, action="append", default=None, metavar="START:END",
+                   help=f"time window in s (repeatable; default the whole{whole_log} log)")
+
+
 def importer_main(module: str, description: str, add_arguments: Callable[[argparse.ArgumentParser], None],
                   run: Callable[[argparse.Namespace], list[Path]], argv: Sequence[str] | None) -> int:
     """`python -m sparc_quad.gap.<module>`: parse, import, print the trial paths; 2 on a LogImportError
