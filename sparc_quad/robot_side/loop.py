@@ -108,21 +108,19 @@ class RobotSide:
         k, t = self.k, self.now()
         torso = self.plant.torso()
         torso.stamp_s, torso.seq = t, k
-        self.port.publish_torso(torso)
+        heartbeat = command = None
         if k % self._hb_every == 0:
-            self.port.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=self.latched, stamp_s=t,
-                                                  seq=self._hb_seq))
+            heartbeat = Heartbeat(sender=self.cfg.name, fault=self.latched, stamp_s=t, seq=self._hb_seq)
             self._hb_seq += 1
         if self.command is not None and k % self._cmd_every == 0:
-            self.command.stamp_s, self.command.seq = t, self._cmd_seq
-            self.port.publish_command(self.command)
+            command = self.command
+            command.stamp_s, command.seq = t, self._cmd_seq
             self._cmd_seq += 1
         fb = None
         if not self.plant.motors_on_bus:
             fb = as_frame(self.plant.feedback(), self.plant.quantise)
             fb.stamp_s, fb.seq = t, k
-            self.t_feedback_wall = time.perf_counter()
-            self.port.publish_feedback(fb)
+        self.t_feedback_wall = self.port.publish_tick(torso, heartbeat, command, fb)
         self._sent = (torso, fb)
         self._clock = t if wall_now is None else wall_now
         self.watchdog.update(self.port.node_heartbeats(), self._clock)

@@ -41,6 +41,21 @@ class Port:
     def publish_command(self, c: SpineCommand) -> None: ...
     def publish_feedback(self, fb: MotorFeedback) -> None: ...
 
+    def publish_tick(self, torso: TorsoState, heartbeat: Heartbeat | None, command: SpineCommand | None,
+                     feedback: MotorFeedback | None) -> float:
+        """One tick's messages in the order the node relies on (torso state before the motor feedback);
+        None: not sent this tick. Returns `time.perf_counter()` when the feedback went out (the lockstep
+        round trip's start)."""
+        self.publish_torso(torso)
+        if heartbeat is not None:
+            self.publish_heartbeat(heartbeat)
+        if command is not None:
+            self.publish_command(command)
+        t = time.perf_counter()
+        if feedback is not None:
+            self.publish_feedback(feedback)
+        return t
+
     def take_command(self, timeout_s: float, want_seq: int | None) -> MotorCommand | None:
         """Newest motor command; with `want_seq`, wait (up to timeout) for the one answering that feedback."""
         raise NotImplementedError
@@ -169,6 +184,25 @@ class LcmPort(Port):
 
     def publish_feedback(self, fb: MotorFeedback) -> None:
         self.lc.publish(channels.MOTOR_FEEDBACK, codec.encode_motor_feedback(fb))
+
+    def publish_tick(self, torso: TorsoState, heartbeat: Heartbeat | None, command: SpineCommand | None,
+                     feedback: MotorFeedback | None) -> float:
+        """Everything encoded first, then published back to back: the node's receiving thread, woken by
+        the first datagram, is still awake for the rest, which then cost no further wake-up (~40 us each
+        on the measuring VM, docs/performance.md "LCM lockstep")."""
+        out = [(channels.TORSO_STATE, codec.encode_torso(torso))]
+        if heartbeat is not None:
+            out.append((channels.HEARTBEAT_ROBOT, codec.encode_heartbeat(heartbeat)))
+        if command is not None:
+            out.append((channels.SPINE_COMMAND, codec.encode_command(command)))
+        fb = codec.encode_motor_feedback(feedback) if feedback is not None else None
+        publish = self.lc.publish
+        for channel, data in out:
+            publish(channel, data)
+        t = time.perf_counter()
+        if fb is not None:
+            publish(channels.MOTOR_FEEDBACK, fb)
+        return t
 
     def take_command(self, timeout_s: float, want_seq: int | None) -> MotorCommand | None:
         deadline = time.monotonic() + timeout_s
