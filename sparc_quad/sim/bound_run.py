@@ -74,12 +74,15 @@ def direct_spine(cfg: BoundConfig) -> DirectSpine:
 
 
 def fall_reason(world: QuadWorld, pitch_front: float) -> str | None:
-    slope = world.cfg.slope_rad
-    if world.body_contact:
+    return _fall_reason(world.body_contact, world.q1, pitch_front, world.roll, world.cfg.slope_rad)
+
+
+def _fall_reason(body_contact: bool, q1: float, pitch_front: float, roll: float, slope: float) -> str | None:
+    if body_contact:
         return "body touched the ground"
-    if abs(world.q1 + slope) > 1.0 or abs(pitch_front + slope) > 1.0:
+    if abs(q1 + slope) > 1.0 or abs(pitch_front + slope) > 1.0:
         return "pitch beyond 1 rad"
-    if abs(world.roll) > 0.8:
+    if abs(roll) > 0.8:
         return "roll beyond 0.8 rad"
     return None
 
@@ -123,14 +126,15 @@ _HELD_AUX_COLS = [_COL[c] for c in HELD_AUX]
 _HELD_KEPT_COLS = [_COL[c] for c in HELD_KEPT]
 
 
-def fill_held_rows(series: np.ndarray, state: np.ndarray, aux: np.ndarray) -> None:
+def fill_held_rows(series: np.ndarray, world: QuadWorld, aux: np.ndarray) -> None:
     """Complete the held steps' rows of `series` in place: `aux[:, 0]` is the index of the row each holds
-    (-1: a row the loop packed in full), `aux[:, 1:]` its HELD_AUX values, `state` its HELD_STATE values."""
+    (-1: a row the loop packed in full), `aux[:, 1:]` its HELD_AUX values, `world.held_rows` its
+    HELD_STATE values."""
     rows = np.flatnonzero(aux[:, 0] >= 0.0)
     if not len(rows):
         return
     src = aux[rows, 0].astype(np.intp)
-    series[np.ix_(rows, _HELD_STATE_COLS)] = state[rows]
+    series[np.ix_(rows, _HELD_STATE_COLS)] = world.held_rows(rows)
     series[np.ix_(rows, _HELD_AUX_COLS)] = aux[rows, 1:]
     series[np.ix_(rows, _HELD_KEPT_COLS)] = series[np.ix_(src, _HELD_KEPT_COLS)]
 
@@ -209,112 +213,140 @@ def run_bound(
     # doubles numpy's row assignment makes, without the temporary array)
     row = struct.Struct(f"{len(COLUMNS)}d")
     pack_row, row_bytes = row.pack_into, row.size
-    # Held steps: between the gait's control calls (the authors' clock), with the spine's torque what the
-    # engine already has, the engine steps with its controls as they are (`world.step_held`, which packs
-    # the state the log needs) and the loop packs the rest of the row (`aux`); the rows are completed
+    # Held steps: between the gait's control calls (the authors' clock), while the spine's torque is what
+    # the engine has, the engine runs a chunk of steps with its controls as they are (`world.step_chunk`:
+    # MuJoCo steps back to back and keeps the raw states); the estimator, the spine and the gait's clock
+    # then catch up on those states in order (a spine torque that changed rewinds the world to that
+    # step, which then runs in full), the loop packs their rows' rest (`aux`) and the rows are completed
     # after the loop (`fill_held_rows`). Same numbers as the full path (tests/sparc_quad/sim/
     # test_held_steps.py); the full path runs whenever profiling, frames, real time or latency need it.
     holds = (held_steps and isinstance(gait, SineBoundController) and gait.clock is not None
              and not latency and not prof and not frame_every and not realtime)
     gait_due = gait.due if holds else None
-    held_state = np.zeros((n + 1 if holds else 0, len(HELD_STATE)))  # row i: the state before step i
+    idle_ticks = gait.clock.idle_ticks if holds else None
+    if holds:
+        world.start_held(n + 1)  # row i: the state before step i
+    max_chunk = n if world.can_rewind else 1
     aux = np.full((n if holds else 0, 1 + len(HELD_AUX)), -1.0)
     pack_aux = struct.Struct(f"{1 + len(HELD_AUX)}d").pack_into
-    state_bytes, aux_bytes = 8 * len(HELD_STATE), 8 * (1 + len(HELD_AUX))
-    step_held = world.step_held
+    aux_bytes = 8 * (1 + len(HELD_AUX))
+    est_update = world.estimator.update
+    slope = world.cfg.slope_rad
     applied = None  # the spine torque list the engine has (None: none set yet)
-    lean = False  # the world's state is a held step's (read() before the full path uses it)
     last_full = -1
+    pending = None  # a step whose estimator, spine and gait ran in a chunk's catch-up: its full path
     t0 = time.perf_counter()
     i = 0
     try:
-        for i in range(n):
+        while i < n:
             if stop is not None and stop():
                 raise KeyboardInterrupt
-            if prof:
-                c0 = clock()
-            t = world.t
-            est = estimate()
-            if prof:
-                c1 = clock()
-                profile["read"] += c1 - c0
-            q_sp, dq_sp = world.q_spine, world.dq_spine
-            spine_begin(est, q_sp, dq_sp, t)  # a node elsewhere works while the gait runs
-            if prof:
-                c0 = clock()
-                profile["spine"] += c0 - c1
-            if holds:
-                due = gait_due()
-                if due and lean:  # the gait reads the whole state at its calls
-                    world.read()
-                    lean = False
-            leg_tau = gait_step(t)
-            if prof:
-                c1 = clock()
-                profile["gait"] += c1 - c0
-            tau_s = spine_finish()  # the gait does not read the spine: the order does not change the numbers
-            if prof:
-                c0 = c1
-                c1 = clock()
-                profile["spine"] += c1 - c0
-            if holds and not due and type(tau_s) is list and tau_s == applied:
-                task = spine.task_pose
-                task = task.tolist() if type(task) is ndarray else task
-                if not lean:  # the state was read in full (a full step before this one)
-                    world.pack_held(held_state, i * state_bytes)
-                pack_aux(aux, i * aux_bytes, last_full, t, est.q1, est.dq1, est.ddq1, world.q1 + sum(q_sp),
-                         *task, gait_phase(), gait_frequency(), spine.energy_j)
-                step_held(held_state, (i + 1) * state_bytes)
-                lean = True
+            if pending is not None:
+                t, est, q_sp, dq_sp, leg_tau, tau_s = pending
+                pending = None
+                due = False
             else:
-                if lean:
-                    world.read()
-                    lean = False
-                last_full = i
-                if latency:  # what the actuators apply now was commanded `latency` steps ago
-                    pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
-                    tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
-                tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
-                set_torques(tau_s, leg_tau)
-                applied = tau_s
-                task = spine.task_pose  # as of this step's begin: read once for the gait and the log
-                task = task.tolist() if type(task) is ndarray else task
-                observe_spine(t, float(task[0]))
-                # log the state the torques were computed from: one row, one pack; the power and peak
-                # columns are filled from the logged torques and rates after the loop
-                # (metrics.derived_columns)
-                q1 = world.q1
-                cf = world.contact_force
-                pack_row(log, i * row_bytes, t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
-                           q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
-                           *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
-                           flags["hind"], flags["front"], 0.0, 0.0, 0.0,
-                           *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
-                           gait_phase(), gait_frequency(), spine.energy_j)
-                if frame_every and i % frame_every == 0 and on_frame is not None:
-                    on_frame(world)
                 if prof:
                     c0 = clock()
-                    profile["log"] += c0 - c1
-                world_step()
+                t = world.t
+                est = estimate()
                 if prof:
                     c1 = clock()
-                    profile["physics"] += c1 - c0
+                    profile["read"] += c1 - c0
+                q_sp, dq_sp = world.q_spine, world.dq_spine
+                spine_begin(est, q_sp, dq_sp, t)  # a node elsewhere works while the gait runs
+                if prof:
+                    c0 = clock()
+                    profile["spine"] += c0 - c1
+                due = holds and gait_due()
+                leg_tau = gait_step(t)
+                if prof:
+                    c1 = clock()
+                    profile["gait"] += c1 - c0
+                tau_s = spine_finish()  # the gait does not read the spine: the order changes no number
+                if prof:
+                    c0 = c1
+                    c1 = clock()
+                    profile["spine"] += c1 - c0
+            if holds and not due and type(tau_s) is list and tau_s == applied:
+                # a chunk: this step and the held steps up to the gait's next call
+                k = min(1 + idle_ticks(), n - i, max_chunk)
+                world.record_held(i)
+                task = spine.task_pose
+                task = task.tolist() if type(task) is ndarray else task
+                pack_aux(aux, i * aux_bytes, last_full, t, est.q1, est.dq1, est.ddq1, world.q1 + sum(q_sp),
+                         *task, gait_phase(), gait_frequency(), spine.energy_j)
+                s0, s = i, i
+                for t1, q1, dq1, roll, q_sp1, dq_sp1, body in world.step_chunk(k, i):
+                    # the state after step s: its fall check, then (inside the chunk) step s + 1's catch-up
+                    if not fell:
+                        reason = _fall_reason(body, q1, q1 + sum(q_sp1), roll, slope)
+                        if reason is not None:
+                            fell, fall_t, first_reason = True, t1, reason
+                            if cfg.stop_on_fall:
+                                break
+                    s += 1
+                    if s == s0 + k:
+                        break
+                    est = est_update(q1, dq1)
+                    spine_begin(est, q_sp1, dq_sp1, t1)
+                    leg_tau = gait_step(t1)
+                    tau_s = spine_finish()
+                    if not (type(tau_s) is list and tau_s == applied):  # the spine's torque changed
+                        world.rewind(s - s0)
+                        pending = (t1, est, q_sp1, dq_sp1, leg_tau, tau_s)
+                        break
+                    task = spine.task_pose
+                    task = task.tolist() if type(task) is ndarray else task
+                    pack_aux(aux, s * aux_bytes, last_full, t1, est.q1, est.dq1, est.ddq1, q1 + sum(q_sp1),
+                             *task, gait_phase(), gait_frequency(), spine.energy_j)
+                if fell and cfg.stop_on_fall:
+                    i = s + 1
+                    break
+                i = s
+                continue
+            last_full = i
+            if latency:  # what the actuators apply now was commanded `latency` steps ago
+                pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
+                tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
+            tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
+            set_torques(tau_s, leg_tau)
+            applied = tau_s
+            task = spine.task_pose  # as of this step's begin: read once for the gait and the log
+            task = task.tolist() if type(task) is ndarray else task
+            observe_spine(t, float(task[0]))
+            # log the state the torques were computed from: one row, one pack; the power and peak
+            # columns are filled from the logged torques and rates after the loop (metrics.derived_columns)
+            q1 = world.q1
+            cf = world.contact_force
+            pack_row(log, i * row_bytes, t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
+                     q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
+                     *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+                     flags["hind"], flags["front"], 0.0, 0.0, 0.0,
+                     *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
+                     gait_phase(), gait_frequency(), spine.energy_j)
+            if frame_every and i % frame_every == 0 and on_frame is not None:
+                on_frame(world)
+            if prof:
+                c0 = clock()
+                profile["log"] += c0 - c1
+            world_step()
+            if prof:
+                c1 = clock()
+                profile["physics"] += c1 - c0
             if realtime:
                 lag = t0 + world.t - time.perf_counter()
                 if lag > 0:
                     time.sleep(lag)
+            i += 1
             if not fell:  # the first fall's time and reason are kept (stop_on_fall=False runs on)
                 reason = fall_reason(world, world.q1 + sum(world.q_spine))
                 if reason is not None:
                     fell, fall_t, first_reason = True, world.t, reason
                     if cfg.stop_on_fall:
-                        i += 1
                         break
             if prof:
                 profile["other"] += clock() - c1
-        else:
-            i = n
     finally:
         wall = time.perf_counter() - t0
         physics_wall = world.physics_wall_s
@@ -324,7 +356,7 @@ def run_bound(
         spine.close()
     series = log[:i]
     if holds:
-        fill_held_rows(series, held_state[:i], aux[:i])
+        fill_held_rows(series, world, aux[:i])
     metrics_table.derived_columns(series)
     # metrics end at the first fall: what a fallen robot does afterwards (stop_on_fall=False) is no gait
     measured = series[: max(1, round(fall_t / dt))] if fell and fall_t is not None else series

@@ -37,3 +37,12 @@ class ControlClock:
         """Whether the next `tick()` calls the controller (its own float arithmetic, nothing advanced): a
         loop that skips state reads between calls asks this to read in full before a call."""
         return self._next_now - self.last_call_s >= self.period_s
+
+    def idle_ticks(self) -> int:
+        """How many of the next `tick()`s will not call the controller (the same float sums, nothing
+        advanced): a loop steps that many held steps in one go."""
+        now, k = self._next_now, 0
+        while now - self.last_call_s < self.period_s:
+            now += self.dt_s
+            k += 1
+        return k

@@ -269,20 +269,40 @@ class QuadWorld(ABC):
     def step(self) -> None:
         """Apply the torques, advance one dt, refresh the state."""
 
-    def step_held(self, out, offset: int) -> None:
-        """Advance one dt with the torques of the last `step` unchanged (a controller holding its output
-        between calls) and pack the new state's `HELD_STATE` values as doubles into the buffer `out` at byte
-        `offset`. Afterwards t, steps, q1, dq1, roll, q_spine, dq_spine and body_contact are current; a
-        backend may leave the other state attributes stale until `read()`. This default is `step` in full."""
-        self.step()
-        self.pack_held(out, offset)
+    # ---- held steps (a controller holding its output between calls: sparc_quad.sim.bound_run) ---------
+    can_rewind = False  # whether `rewind` can take back part of a chunk (then chunks may be long)
 
-    def pack_held(self, out, offset: int) -> None:
-        """Pack the present state's `HELD_STATE` values (as read in full) into `out` at byte `offset`."""
+    def start_held(self, n_rows: int) -> None:
+        """Room for the states before steps 0 .. n_rows - 1 (`record_held`, `step_chunk`; `held_rows`)."""
+        self._held = np.zeros((n_rows, len(HELD_STATE)))
+
+    def record_held(self, row: int) -> None:
+        """Keep the present state (read in full) as the state before step `row`."""
         cf = self.contact_force
-        PACK_HELD(out, offset, *self.base_pos, self.q1, self.dq1, self.roll, self.yaw, *self.q_spine,
-                  *self.dq_spine, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
-                  *self.leg_rates())
+        PACK_HELD(self._held, row * 8 * len(HELD_STATE), *self.base_pos, self.q1, self.dq1, self.roll,
+                  self.yaw, *self.q_spine, *self.dq_spine, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0,
+                  cf["FR"] > 0.0, *self.leg_rates())
+
+    def step_chunk(self, k: int, row: int) -> list[tuple]:
+        """Advance k steps with the torques of the last `step` unchanged, keeping each new state as the
+        state before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, q_spine, dq_spine,
+        body_contact). The state attributes are the last state's, read in full. This default steps one by
+        one (no rewind: callers ask for k = 1)."""
+        states = []
+        for r in range(1, k + 1):
+            self.step()
+            self.record_held(row + r)
+            states.append((self.t, self.q1, self.dq1, self.roll, self.q_spine, self.dq_spine,
+                           self.body_contact))
+        return states
+
+    def rewind(self, r: int) -> None:
+        """Back to the last chunk's r-th new state (r >= 1), read in full (worlds with `can_rewind`)."""
+        raise NotImplementedError(f"the {self.engine} world does not rewind")
+
+    def held_rows(self, rows: np.ndarray) -> np.ndarray:
+        """The HELD_STATE values of the kept states before steps `rows`."""
+        return self._held[rows]
 
     @abstractmethod
     def close(self) -> None: ...

@@ -27,7 +27,7 @@ from sparc_quad.robots import ROBOTS_DIR
 from sparc_quad.sim import spined_dog
 from sparc_quad.sim.quadruped_world import (
     ABSENT,
-    PACK_HELD,
+    HELD_STATE,
     QuadWorld,
     WorldConfig,
     quat_about_y,
@@ -35,6 +35,9 @@ from sparc_quad.sim.quadruped_world import (
 
 FLOOR = "floor"
 LOCK_SOLREF = (0.002, 1.0)  # equality time constant of a locked spine joint: 2 steps of 1 ms
+# mjSENS_CONTACT's intprm: data found | force (bits 1, 2), reduce by the largest force (2), one contact
+FOOT_SENSOR_INTPRM = (3, 2, 1)
+STATE_ALL = mujoco.mjtState.mjSTATE_INTEGRATION  # what a rewind restores: state, warm start, controls
 
 
 def _options(spec: mujoco.MjSpec, cfg: WorldConfig) -> None:
@@ -103,6 +106,12 @@ class MujocoWorld(QuadWorld):
                 data = np.zeros(mujoco.mjNEQDATA)
                 data[0] = q
                 spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=name, data=data, solref=LOCK_SOLREF)
+        # a contact sensor per foot (found, normal force, two friction components of the contact with the
+        # largest force): the chunked steps' foot contacts, one copy per step; sensors do not act
+        for leg, v in self.legs.items():
+            spec.add_sensor(name=f"contact_{leg}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                            objtype=mujoco.mjtObj.mjOBJ_BODY, objname=v["foot_link"],
+                            reftype=mujoco.mjtObj.mjOBJ_GEOM, refname=FLOOR, intprm=FOOT_SENSOR_INTPRM)
         self.spec = spec
         self.model = m = spec.compile()
         if cfg.mass_scale != 1.0:
@@ -149,14 +158,20 @@ class MujocoWorld(QuadWorld):
         self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self._ctrl_all = isinstance(self._ctrl_idx, slice) and self._ctrl.flags.c_contiguous
         self._pack_ctrl = struct.Struct(f"{m.nu}d").pack_into
-        # step_held's reads straight from the qpos / qvel lists: the spine's q and dq, the 12 leg rates
-        # (an absent joint reads the 0.0 appended past qvel's end)
-        qadr = self._qadr_list
-        dadr = self._dadr_list
-        self._held_q = operator.itemgetter(*(qadr[p] for p in self._spine_pos))
-        self._held_dq = operator.itemgetter(*(dadr[p] for p in self._spine_pos))
-        self._held_legs = operator.itemgetter(*(dadr[self.pos_in_movable[j]] if j != ABSENT else m.nv
-                                                for k in ("HL", "HR", "FL", "FR") for j in self.leg_idx[k]))
+        # chunked held steps (step_chunk): their states are kept raw (qpos, qvel, the foot sensors) and
+        # converted after the run; the spine's q and dq are read straight from qpos and qvel rows
+        qadr, dadr = self._qadr_list, self._dadr_list
+        self._spine_qadr = [qadr[p] for p in self._spine_pos]
+        self._spine_dadr = [dadr[p] for p in self._spine_pos]
+        self._held_q = operator.itemgetter(*self._spine_qadr)
+        self._held_dq = operator.itemgetter(*self._spine_dadr)
+        self._leg_dadr = [dadr[self.pos_in_movable[j]] if j != ABSENT else -1
+                          for k in ("HL", "HR", "FL", "FR") for j in self.leg_idx[k]]
+        self._sens = self.data.sensordata
+        self._foot_force_adr = [int(m.sensor_adr[m.sensor(f"contact_{k}").id]) + 1
+                                for k in ("HL", "HR", "FL", "FR")]
+        self.can_rewind = self._contacts_are_feet_on_floor()
+        self._snap = np.zeros(mujoco.mj_stateSize(m, STATE_ALL))
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
         if cfg.init_vx_m_s:
             self.data.qvel[0] = cfg.init_vx_m_s
@@ -270,28 +285,109 @@ class MujocoWorld(QuadWorld):
         self.steps += 1
         self.t = self.steps * self.cfg.dt_s
 
-    def step_held(self, out, offset: int) -> None:
-        """`QuadWorld.step_held` without the torque copy (mj_step leaves ctrl as it was) and with `read`'s
-        arithmetic for only what the held step needs: base_rot, base_omega, base_vel, base_quat, jq and jdq
-        are left stale (yaw, leg rates and contacts are packed), until `read()`."""
-        self._mj_step()
-        qp = self._qpos.tolist()
-        qv = self._qvel.tolist()
-        qw, qx, qy, qz = qp[3:7]
-        wx, wy, wz = qv[3:6]
+    def _contacts_are_feet_on_floor(self) -> bool:
+        """Whether every contact with the floor is one foot sphere on the plane (one contact per foot, no
+        body contact): then the foot sensors give exactly the flags `read` computes, and chunks are exact."""
+        m = self.model
+        floor = self._floor
+        if m.geom_type[floor] != mujoco.mjtGeom.mjGEOM_PLANE:
+            return False
+        per_foot: dict[str, int] = {}
+        for g in range(m.ngeom):
+            if g == floor or not (m.geom_contype[g] & m.geom_conaffinity[floor]
+                                  or m.geom_contype[floor] & m.geom_conaffinity[g]):
+                continue
+            key = self._geom_foot.get(g)
+            if key is None or m.geom_type[g] != mujoco.mjtGeom.mjGEOM_SPHERE:
+                return False
+            per_foot[key] = per_foot.get(key, 0) + 1
+        return all(v == 1 for v in per_foot.values())
+
+    def start_held(self, n_rows: int) -> None:
+        if not self.can_rewind:
+            return super().start_held(n_rows)
+        self._qb = np.zeros((n_rows, self.model.nq))
+        self._vb = np.zeros((n_rows, self.model.nv))
+        self._sb = np.zeros((n_rows, self.model.nsensordata))
+
+    def record_held(self, row: int) -> None:
+        if not self.can_rewind:
+            return super().record_held(row)
+        self._qb[row] = self._qpos
+        self._vb[row] = self._qvel
+        self._sb[row] = self._sens
+
+    def step_chunk(self, k: int, row: int) -> list[tuple]:
+        """`QuadWorld.step_chunk` as k mj_steps back to back, each new state's qpos, qvel and foot sensors
+        copied into the run's buffers (ctrl is left as the last `step` set it), then converted."""
+        if not self.can_rewind:
+            return super().step_chunk(k, row)
+        m, d, step, clock = self.model, self.data, mujoco.mj_step, time.perf_counter
+        qpos, qvel, sens, qb, vb, sb = self._qpos, self._qvel, self._sens, self._qb, self._vb, self._sb
+        mujoco.mj_getState(m, d, self._snap, STATE_ALL)  # for `rewind`
+        steps0 = self.steps
+        self._chunk = (row, steps0)
+        wall = 0.0
+        for j in range(row + 1, row + k + 1):
+            t0 = clock()
+            step(m, d)
+            wall += clock() - t0
+            qb[j] = qpos
+            vb[j] = qvel
+            sb[j] = sens
+        self.physics_wall_s += wall
+        self.steps = steps0 + k
+        self.t = self.steps * self.cfg.dt_s
+        self.read()
+        states = []
+        dt, held_q, held_dq = self.cfg.dt_s, self._held_q, self._held_dq
+        for r, (qp, qv) in enumerate(zip(qb[row + 1:row + k + 1].tolist(), vb[row + 1:row + k + 1].tolist(),
+                                          strict=True), start=1):
+            rot = _rotation(*qp[3:7])
+            wx, wy, wz = qv[3:6]
+            states.append(((steps0 + r) * dt, math.atan2(-rot[6], rot[0]),
+                           rot[3] * wx + rot[4] * wy + rot[5] * wz, math.atan2(rot[7], rot[8]),
+                           list(held_q(qp)), list(held_dq(qv)), False))
+        return states
+
+    def rewind(self, r: int) -> None:
+        """Back to the chunk's r-th new state (r >= 1): its start restored, r steps redone (deterministic:
+        the same state, warm start and controls give the same doubles), read in full."""
+        if r < 1:
+            raise ValueError(f"rewind to a chunk's r-th state needs r >= 1, got {r}")
+        _, steps0 = self._chunk
+        m, d = self.model, self.data
+        mujoco.mj_setState(m, d, self._snap, STATE_ALL)
+        t0 = time.perf_counter()
+        mujoco.mj_step(m, d, nstep=r)
+        self.physics_wall_s += time.perf_counter() - t0
+        self.steps = steps0 + r
+        self.t = self.steps * self.cfg.dt_s
+        self.read()
+
+    def held_rows(self, rows: np.ndarray) -> np.ndarray:
+        """The HELD_STATE values of the states before steps `rows`, from the raw buffers, with `read`'s
+        arithmetic (numpy's elementwise doubles; the angles by math.atan2, as `read`)."""
+        if not self.can_rewind:
+            return super().held_rows(rows)
+        qp, qv, sn = self._qb[rows], self._vb[rows], self._sb[rows]
+        qw, qx, qy, qz = qp[:, 3], qp[:, 4], qp[:, 5], qp[:, 6]
+        wx, wy, wz = qv[:, 3], qv[:, 4], qv[:, 5]
         rot = _rotation(qw, qx, qy, qz)
-        self.q1 = q1 = math.atan2(-rot[6], rot[0])
-        self.dq1 = dq1 = rot[3] * wx + rot[4] * wy + rot[5] * wz
-        self.roll = roll = math.atan2(rot[7], rot[8])
-        self.yaw = yaw = math.atan2(rot[3], rot[0])
-        self.base_pos = pos = (qp[0], qp[1], qp[2])
-        self.q_spine = q_sp = list(self._held_q(qp))
-        self.dq_spine = dq_sp = list(self._held_dq(qv))
-        self._read_contacts()
-        cf = self.contact_force
-        qv.append(0.0)
-        PACK_HELD(out, offset, *pos, q1, dq1, roll, yaw, *q_sp, *dq_sp, cf["HL"] > 0.0, cf["HR"] > 0.0,
-                  cf["FL"] > 0.0, cf["FR"] > 0.0, *self._held_legs(qv))
+        atan2 = np.frompyfunc(math.atan2, 2, 1)
+        out = np.zeros((len(rows), len(HELD_STATE)))
+        out[:, 0:3] = qp[:, 0:3]
+        out[:, 3] = atan2(-rot[6], rot[0])
+        out[:, 4] = rot[3] * wx + rot[4] * wy + rot[5] * wz
+        out[:, 5] = atan2(rot[7], rot[8])
+        out[:, 6] = atan2(rot[3], rot[0])
+        out[:, 7:10] = qp[:, self._spine_qadr]
+        out[:, 10:13] = qv[:, self._spine_dadr]
+        out[:, 13:17] = sn[:, self._foot_force_adr] > 0.0
+        legs = np.asarray(self._leg_dadr)
+        present = legs >= 0
+        out[:, 17:][:, present] = qv[:, legs[present]]
+        return out
 
     def close(self) -> None:
         renderer = getattr(self, "_renderer", None)

@@ -52,38 +52,63 @@ def test_held_steps_bit_identical_through_a_fall():
     _assert_same(held, full)
 
 
-def test_mujoco_step_held_packs_what_read_gives():
-    """MuJoCo's held step (no torque copy, a partial state read) packs and sets what `step` + `read` do."""
+def test_mujoco_chunk_keeps_what_read_gives():
+    """MuJoCo's chunk (steps back to back, raw states converted after) gives, state by state, what `step` +
+    `read` give; `rewind` takes it back to a state exactly."""
     cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0)
     a, b = make_world(cfg.world), make_world(cfg.world)
+    assert b.can_rewind
     tau = ([0.3, -0.2, 0.1], {k: (0.0, 1.5, -2.0) for k in ("HL", "HR", "FL", "FR")})
     a.set_torques(*tau)
     b.set_torques(*tau)
     a.step()
     b.step()
-    out = np.zeros((200, len(HELD_STATE)))
-    for k in range(200):
+    a.start_held(201)
+    b.start_held(201)
+    b.record_held(0)
+    a.record_held(0)
+    states = b.step_chunk(200, 0)
+    for r, st in enumerate(states, start=1):
         a.step()
-        b.step_held(out, k * out.itemsize * out.shape[1])
-        cf = a.contact_force
-        want = [*a.base_pos, a.q1, a.dq1, a.roll, a.yaw, *a.q_spine, *a.dq_spine,
-                *(float(cf[leg] > 0.0) for leg in ("HL", "HR", "FL", "FR")), *a.leg_rates()]
-        assert out[k].tolist() == want
-        assert (b.t, b.q1, b.dq1, b.roll, b.q_spine, b.dq_spine, b.body_contact) == (
-            a.t, a.q1, a.dq1, a.roll, a.q_spine, a.dq_spine, a.body_contact)
-    assert any(out[:, HELD_STATE.index("contact_HL")] > 0.5)  # the feet touched: the flags were exercised
-    b.read()
+        a.record_held(r)
+        assert st == (a.t, a.q1, a.dq1, a.roll, a.q_spine, a.dq_spine, a.body_contact)
+    rows = np.arange(201)
+    got, want = b.held_rows(rows), a.held_rows(rows)
+    assert got.tobytes() == want.tobytes()
+    assert any(got[:, HELD_STATE.index("contact_HL")] > 0.5)  # the feet touched: the flags were exercised
     assert (b.jq, b.jdq, b.base_rot, b.base_omega) == (a.jq, a.jdq, a.base_rot, a.base_omega)
+    c = make_world(cfg.world)
+    c.set_torques(*tau)
+    c.step()
+    for _ in range(57):
+        c.step()
+    b.rewind(57)
+    assert (b.t, b.jq, b.jdq, b.contact_force) == (c.t, c.jq, c.jdq, c.contact_force)
+
+
+def test_chunk_rewinds_when_the_spine_torque_changes():
+    """A spine on another clock than the gait's changes its torque inside chunks: each such step rewinds
+    the world and runs in full, and the series is still the full path's."""
+    from dataclasses import replace
+
+    base = bound_config({"gait": "sine", "variant": "authors", "host": "spined-dog", "engine": "mujoco",
+                         "duration": 2.0, "step_length": 0.08, "kx": 800.0, "seed": 1})
+    cfg = replace(base, spine_rate_hz=300.0)  # 3.33 ms: calls between the gait's 5 ms calls
+    held, full = _both(cfg)
+    assert held.metrics["held_steps"] > 0.3 * len(held.series)
+    assert held.series.tobytes() == full.series.tobytes()
 
 
 def test_fill_held_rows_copies_the_held_row_and_packs_the_rest():
+    class _World:
+        def held_rows(self, rows):
+            return np.array([np.arange(200, 200 + len(HELD_STATE))] * len(rows), dtype=float)
+
     series = np.arange(3 * len(COLUMNS), dtype=float).reshape(3, len(COLUMNS))
     aux = np.full((3, 12), -1.0)
     aux[2] = [0.0, *range(100, 111)]
-    state = np.zeros((3, len(HELD_STATE)))
-    state[2] = np.arange(200, 200 + len(HELD_STATE))
     before = series.copy()
-    fill_held_rows(series, state, aux)
+    fill_held_rows(series, _World(), aux)
     assert np.array_equal(series[:2], before[:2])
     assert series[2, COLUMNS.index("tau3")] == before[0, COLUMNS.index("tau3")]
     assert series[2, COLUMNS.index("t")] == 100.0
