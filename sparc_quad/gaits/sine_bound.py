@@ -174,11 +174,6 @@ class SineBoundController(Gait):
             return self.phase % TWO_PI
         return self._phase_at(self.clock.now_s) % TWO_PI
 
-    def due(self) -> bool:
-        """Whether the next `step` computes new torques (authors: when its clock calls; literal: every
-        step); between calls `step` returns the held `out` unchanged."""
-        return self.clock is None or self.clock.due()
-
     # ---- targets -------------------------------------------------------------------------------------
     def foot_target(self, leg: str, phase: float, amp: float = 1.0) -> tuple[float, float]:
         """Foot (x forward, z up) relative to the hip in the body frame, m."""

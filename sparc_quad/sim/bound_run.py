@@ -213,27 +213,24 @@ def run_bound(
     # doubles numpy's row assignment makes, without the temporary array)
     row = struct.Struct(f"{len(COLUMNS)}d")
     pack_row, row_bytes = row.pack_into, row.size
-    # Held steps: between the gait's control calls (the authors' clock), while the spine's torque is what
-    # the engine has, the engine runs a chunk of steps with its controls as they are (`world.step_chunk`:
-    # MuJoCo steps back to back and keeps the raw states); the estimator, the spine and the gait's clock
-    # then catch up on those states in order (a spine torque that changed rewinds the world to that
-    # step, which then runs in full), the loop packs their rows' rest (`aux`) and the rows are completed
-    # after the loop (`fill_held_rows`). Same numbers as the full path (tests/sparc_quad/sim/
-    # test_held_steps.py); the full path runs whenever profiling, frames, real time or latency need it.
-    holds = (held_steps and isinstance(gait, SineBoundController) and gait.clock is not None
-             and not latency and not prof and not frame_every and not realtime)
-    gait_due = gait.due if holds else None
+    # Held steps: after a step computed in full, the engine runs it and the steps up to the gait's next
+    # call (the authors' clock) back to back with the controls as they are (`world.step_chunk`: MuJoCo
+    # keeps the raw states); the estimator, the spine and the gait's clock then catch up on those states
+    # in order and the loop packs the rest of their rows (`aux`). A spine torque that changed in a chunk
+    # rewinds the world to that step, which then runs in full. The held rows are completed after the loop
+    # (`fill_held_rows`). Same numbers as the full path at every step (tests/sparc_quad/sim/
+    # test_held_steps.py), which runs whenever profiling, frames, real time or latency need it, and on
+    # worlds that cannot rewind (pybullet).
+    holds = (held_steps and world.can_rewind and isinstance(gait, SineBoundController)
+             and gait.clock is not None and not latency and not prof and not frame_every and not realtime)
     idle_ticks = gait.clock.idle_ticks if holds else None
     if holds:
         world.start_held(n + 1)  # row i: the state before step i
-    max_chunk = n if world.can_rewind else 1
     aux = np.full((n if holds else 0, 1 + len(HELD_AUX)), -1.0)
     pack_aux = struct.Struct(f"{1 + len(HELD_AUX)}d").pack_into
     aux_bytes = 8 * (1 + len(HELD_AUX))
-    est_update = world.estimator.update
+    est_update, step_chunk = world.estimator.update, world.step_chunk
     slope = world.cfg.slope_rad
-    applied = None  # the spine torque list the engine has (None: none set yet)
-    last_full = -1
     pending = None  # a step whose estimator, spine and gait ran in a chunk's catch-up: its full path
     t0 = time.perf_counter()
     i = 0
@@ -244,7 +241,6 @@ def run_bound(
             if pending is not None:
                 t, est, q_sp, dq_sp, leg_tau, tau_s = pending
                 pending = None
-                due = False
             else:
                 if prof:
                     c0 = clock()
@@ -258,7 +254,6 @@ def run_bound(
                 if prof:
                     c0 = clock()
                     profile["spine"] += c0 - c1
-                due = holds and gait_due()
                 leg_tau = gait_step(t)
                 if prof:
                     c1 = clock()
@@ -268,50 +263,11 @@ def run_bound(
                     c0 = c1
                     c1 = clock()
                     profile["spine"] += c1 - c0
-            if holds and not due and type(tau_s) is list and tau_s == applied:
-                # a chunk: this step and the held steps up to the gait's next call
-                k = min(1 + idle_ticks(), n - i, max_chunk)
-                world.record_held(i)
-                task = spine.task_pose
-                task = task.tolist() if type(task) is ndarray else task
-                pack_aux(aux, i * aux_bytes, last_full, t, est.q1, est.dq1, est.ddq1, world.q1 + sum(q_sp),
-                         *task, gait_phase(), gait_frequency(), spine.energy_j)
-                s0, s = i, i
-                for t1, q1, dq1, roll, q_sp1, dq_sp1, body in world.step_chunk(k, i):
-                    # the state after step s: its fall check, then (inside the chunk) step s + 1's catch-up
-                    if not fell:
-                        reason = _fall_reason(body, q1, q1 + sum(q_sp1), roll, slope)
-                        if reason is not None:
-                            fell, fall_t, first_reason = True, t1, reason
-                            if cfg.stop_on_fall:
-                                break
-                    s += 1
-                    if s == s0 + k:
-                        break
-                    est = est_update(q1, dq1)
-                    spine_begin(est, q_sp1, dq_sp1, t1)
-                    leg_tau = gait_step(t1)
-                    tau_s = spine_finish()
-                    if not (type(tau_s) is list and tau_s == applied):  # the spine's torque changed
-                        world.rewind(s - s0)
-                        pending = (t1, est, q_sp1, dq_sp1, leg_tau, tau_s)
-                        break
-                    task = spine.task_pose
-                    task = task.tolist() if type(task) is ndarray else task
-                    pack_aux(aux, s * aux_bytes, last_full, t1, est.q1, est.dq1, est.ddq1, q1 + sum(q_sp1),
-                             *task, gait_phase(), gait_frequency(), spine.energy_j)
-                if fell and cfg.stop_on_fall:
-                    i = s + 1
-                    break
-                i = s
-                continue
-            last_full = i
             if latency:  # what the actuators apply now was commanded `latency` steps ago
                 pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
                 tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
             tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
             set_torques(tau_s, leg_tau)
-            applied = tau_s
             task = spine.task_pose  # as of this step's begin: read once for the gait and the log
             task = task.tolist() if type(task) is ndarray else task
             observe_spine(t, float(task[0]))
@@ -330,6 +286,38 @@ def run_bound(
             if prof:
                 c0 = clock()
                 profile["log"] += c0 - c1
+            if holds:
+                # this step and the held ones up to the gait's next call, then their catch-up
+                k = min(1 + idle_ticks(), n - i)
+                s0 = s = i
+                for t1, q1, dq1, roll, q_sp1, dq_sp1, body in step_chunk(k, i):
+                    # the state after step s: its fall check, then (inside the chunk) step s + 1's catch-up
+                    if not fell:
+                        reason = _fall_reason(body, q1, q1 + sum(q_sp1), roll, slope)
+                        if reason is not None:
+                            fell, fall_t, first_reason = True, t1, reason
+                            if cfg.stop_on_fall:
+                                break
+                    s += 1
+                    if s == s0 + k:
+                        break
+                    est = est_update(q1, dq1)
+                    spine_begin(est, q_sp1, dq_sp1, t1)
+                    leg_tau = gait_step(t1)
+                    tau_s1 = spine_finish()
+                    if not (type(tau_s1) is list and tau_s1 == tau_s):  # the spine's torque changed
+                        world.rewind(s - s0)
+                        pending = (t1, est, q_sp1, dq_sp1, leg_tau, tau_s1)
+                        break
+                    task = spine.task_pose
+                    task = task.tolist() if type(task) is ndarray else task
+                    pack_aux(aux, s * aux_bytes, s0, t1, est.q1, est.dq1, est.ddq1, q1 + sum(q_sp1), *task,
+                             gait_phase(), gait_frequency(), spine.energy_j)
+                if fell and cfg.stop_on_fall:
+                    i = s + 1
+                    break
+                i = s
+                continue
             world_step()
             if prof:
                 c1 = clock()

@@ -33,11 +33,6 @@ class ControlClock:
             return True
         return False
 
-    def due(self) -> bool:
-        """Whether the next `tick()` calls the controller (its own float arithmetic, nothing advanced): a
-        loop that skips state reads between calls asks this to read in full before a call."""
-        return self._next_now - self.last_call_s >= self.period_s
-
     def idle_ticks(self) -> int:
         """How many of the next `tick()`s will not call the controller (the same float sums, nothing
         advanced): a loop steps that many held steps in one go."""

@@ -277,17 +277,17 @@ class QuadWorld(ABC):
         self._held = np.zeros((n_rows, len(HELD_STATE)))
 
     def record_held(self, row: int) -> None:
-        """Keep the present state (read in full) as the state before step `row`."""
+        """Keep the present state (read in full) as the state before step `row` (`step_chunk`)."""
         cf = self.contact_force
         PACK_HELD(self._held, row * 8 * len(HELD_STATE), *self.base_pos, self.q1, self.dq1, self.roll,
                   self.yaw, *self.q_spine, *self.dq_spine, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0,
                   cf["FR"] > 0.0, *self.leg_rates())
 
     def step_chunk(self, k: int, row: int) -> list[tuple]:
-        """Advance k steps with the torques of the last `step` unchanged, keeping each new state as the
-        state before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, q_spine, dq_spine,
-        body_contact). The state attributes are the last state's, read in full. This default steps one by
-        one (no rewind: callers ask for k = 1)."""
+        """Advance k steps with the torques last set (`set_torques`), keeping each new state as the state
+        before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, q_spine, dq_spine,
+        body_contact). The state attributes are the last state's, read in full. This default is `step`
+        k times (without `rewind`: a chunk cannot be taken back, so the bound does not use it)."""
         states = []
         for r in range(1, k + 1):
             self.step()
@@ -297,7 +297,7 @@ class QuadWorld(ABC):
         return states
 
     def rewind(self, r: int) -> None:
-        """Back to the last chunk's r-th new state (r >= 1), read in full (worlds with `can_rewind`)."""
+        """Back to the last chunk's r-th new state (1 <= r < k), read in full (worlds with `can_rewind`)."""
         raise NotImplementedError(f"the {self.engine} world does not rewind")
 
     def held_rows(self, rows: np.ndarray) -> np.ndarray:

@@ -270,13 +270,16 @@ class MujocoWorld(QuadWorld):
                     force[key] += float(cf[0])
 
     def step(self) -> None:
+        self._set_ctrl()
+        self._mj_step()
+        self.read()
+
+    def _set_ctrl(self) -> None:
         tau = self._tau if not self._pad else self._tau[:self.n_engine_joints]
         if self._ctrl_all:  # packed as doubles into ctrl's buffer (the same conversion numpy makes)
             self._pack_ctrl(self._ctrl, 0, *tau)
         else:
             self._ctrl[self._ctrl_idx] = tau
-        self._mj_step()
-        self.read()
 
     def _mj_step(self) -> None:
         t0 = time.perf_counter()
@@ -310,20 +313,14 @@ class MujocoWorld(QuadWorld):
         self._vb = np.zeros((n_rows, self.model.nv))
         self._sb = np.zeros((n_rows, self.model.nsensordata))
 
-    def record_held(self, row: int) -> None:
-        if not self.can_rewind:
-            return super().record_held(row)
-        self._qb[row] = self._qpos
-        self._vb[row] = self._qvel
-        self._sb[row] = self._sens
-
     def step_chunk(self, k: int, row: int) -> list[tuple]:
         """`QuadWorld.step_chunk` as k mj_steps back to back, each new state's qpos, qvel and foot sensors
-        copied into the run's buffers (ctrl is left as the last `step` set it), then converted."""
+        copied into the run's buffers, then converted."""
         if not self.can_rewind:
             return super().step_chunk(k, row)
         m, d, step, clock = self.model, self.data, mujoco.mj_step, time.perf_counter
         qpos, qvel, sens, qb, vb, sb = self._qpos, self._qvel, self._sens, self._qb, self._vb, self._sb
+        self._set_ctrl()
         mujoco.mj_getState(m, d, self._snap, STATE_ALL)  # for `rewind`
         steps0 = self.steps
         self._chunk = (row, steps0)

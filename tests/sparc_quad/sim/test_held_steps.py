@@ -23,8 +23,11 @@ def _both(cfg):
         return run_bound(cfg, held_steps=True), run_bound(cfg, held_steps=False)
 
 
-def _assert_same(held, full):
-    assert held.metrics["held_steps"] > 0.7 * len(held.series)  # most steps of the authors' 5 ms clock
+def _assert_same(held, full, chunks: bool = True):
+    if chunks:
+        assert held.metrics["held_steps"] > 0.7 * len(held.series)  # most steps of the authors' 5 ms clock
+    else:  # a world that cannot rewind runs every step in full
+        assert held.metrics["held_steps"] == 0
     assert full.metrics["held_steps"] == 0
     assert held.series.shape == full.series.shape
     bad = [COLUMNS[c] for c in np.flatnonzero(np.any(held.series != full.series, axis=0))]
@@ -37,12 +40,13 @@ def _assert_same(held, full):
 
 @pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
 def test_held_steps_bit_identical_study_trial(engine):
-    """The study's trial (noise, seed perturbation, spine schedule, frequency adaptation off at 3 s)."""
+    """The study's trial (noise, seed perturbation, spine schedule, frequency adaptation); pybullet, which
+    cannot rewind, runs it in full."""
     if engine == "pybullet":
         pytest.importorskip("pybullet")
     cfg = bound_config({"gait": "sine", "variant": "authors", "host": "spined-dog", "engine": engine,
                         "duration": 3.0, "step_length": 0.08, "kx": 300.0, "seed": 3})
-    _assert_same(*_both(cfg))
+    _assert_same(*_both(cfg), chunks=engine == "mujoco")
 
 
 def test_held_steps_bit_identical_through_a_fall():
@@ -52,38 +56,57 @@ def test_held_steps_bit_identical_through_a_fall():
     _assert_same(held, full)
 
 
+def _held_values(w) -> list[float]:
+    cf = w.contact_force
+    return [*w.base_pos, w.q1, w.dq1, w.roll, w.yaw, *w.q_spine, *w.dq_spine,
+            *(float(cf[leg] > 0.0) for leg in ("HL", "HR", "FL", "FR")), *w.leg_rates()]
+
+
 def test_mujoco_chunk_keeps_what_read_gives():
     """MuJoCo's chunk (steps back to back, raw states converted after) gives, state by state, what `step` +
     `read` give; `rewind` takes it back to a state exactly."""
     cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0)
-    a, b = make_world(cfg.world), make_world(cfg.world)
+    a, b, c = make_world(cfg.world), make_world(cfg.world), make_world(cfg.world)
     assert b.can_rewind
     tau = ([0.3, -0.2, 0.1], {k: (0.0, 1.5, -2.0) for k in ("HL", "HR", "FL", "FR")})
-    a.set_torques(*tau)
-    b.set_torques(*tau)
-    a.step()
-    b.step()
-    a.start_held(201)
+    for w in (a, b, c):
+        w.set_torques(*tau)
     b.start_held(201)
-    b.record_held(0)
-    a.record_held(0)
     states = b.step_chunk(200, 0)
-    for r, st in enumerate(states, start=1):
+    want = []
+    for st in states:
         a.step()
-        a.record_held(r)
         assert st == (a.t, a.q1, a.dq1, a.roll, a.q_spine, a.dq_spine, a.body_contact)
-    rows = np.arange(201)
-    got, want = b.held_rows(rows), a.held_rows(rows)
-    assert got.tobytes() == want.tobytes()
+        want.append(_held_values(a))
+    got = b.held_rows(np.arange(1, 201))
+    assert got.tolist() == want
     assert any(got[:, HELD_STATE.index("contact_HL")] > 0.5)  # the feet touched: the flags were exercised
-    assert (b.jq, b.jdq, b.base_rot, b.base_omega) == (a.jq, a.jdq, a.base_rot, a.base_omega)
-    c = make_world(cfg.world)
-    c.set_torques(*tau)
-    c.step()
+    assert any(got[:, HELD_STATE.index("contact_HL")] < 0.5)
+    assert (b.jq, b.jdq, b.base_rot, b.base_omega, b.contact_force) == (
+        a.jq, a.jdq, a.base_rot, a.base_omega, a.contact_force)
     for _ in range(57):
         c.step()
     b.rewind(57)
     assert (b.t, b.jq, b.jdq, b.contact_force) == (c.t, c.jq, c.jdq, c.contact_force)
+
+
+def test_default_chunk_is_step_by_step():
+    """The interface's fallback (pybullet): `step` k times, each state kept as `read` gives it."""
+    pytest.importorskip("pybullet")
+    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0, engine="pybullet")
+    a, b = make_world(cfg.world), make_world(cfg.world)
+    assert not b.can_rewind
+    tau = ([0.3, -0.2, 0.1], {k: (0.0, 1.5, -2.0) for k in ("HL", "HR", "FL", "FR")})
+    a.set_torques(*tau)
+    b.set_torques(*tau)
+    b.start_held(21)
+    states = b.step_chunk(20, 0)
+    want = []
+    for st in states:
+        a.step()
+        assert st == (a.t, a.q1, a.dq1, a.roll, a.q_spine, a.dq_spine, a.body_contact)
+        want.append(_held_values(a))
+    assert b.held_rows(np.arange(1, 21)).tolist() == want
 
 
 def test_chunk_rewinds_when_the_spine_torque_changes():
