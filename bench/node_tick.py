@@ -19,8 +19,11 @@ import argparse
 import json
 import platform
 import statistics
+import sys
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # time this checkout's code, not an install
 
 import numpy as np
 import pinocchio as pin

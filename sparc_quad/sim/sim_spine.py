@@ -25,6 +25,8 @@ from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_dri
 from spine_module import params as P
 from spine_module import safety
 
+_limit_torque = safety.limit_torque
+
 
 @runtime_checkable
 class SimSpine(Protocol):
@@ -80,13 +82,13 @@ class DirectSpine:
         self.actuated = bool(self.drive.actuated)
         self.backend = self.drive.backend
         lim = limits if limits is not None else safety.SafetyConfig()
-        self._lower, self._upper = lim.lower.tolist(), lim.upper.tolist()
-        self._margin, self._c_limit = lim.limit_margin, lim.joint_limit_damping
-        self._tau_max = lim.torque_limit
         if spine is not None and limits is None:  # another robot's spine: its own joint and torque limits
-            self._lower = [spine.lower_rad[j] for j in P.ACTUATED_JOINTS]
-            self._upper = [spine.upper_rad[j] for j in P.ACTUATED_JOINTS]
-            self._tau_max = spine.torque_limit_nm
+            joints = P.ACTUATED_JOINTS
+            self._limits = safety.TorqueLimits.of(
+                [spine.lower_rad[j] for j in joints], [spine.upper_rad[j] for j in joints], lim.limit_margin,
+                lim.joint_limit_damping, spine.torque_limit_nm)
+        else:
+            self._limits = safety.TorqueLimits.from_config(lim)
         self._q = np.zeros(4)
         self._dq = np.zeros(4)
         self._tau: list[float] = [0.0, 0.0, 0.0]
@@ -94,13 +96,6 @@ class DirectSpine:
         # between, is kept here as floats
         self._tick = self.drive.tick if self.drive.clocked else None
         self._held: list[float] = self.drive.tau.tolist() if self._tick is not None else []
-        # joint_limit_damping_list's "every joint clear of its margin" bounds and zero-depth factor
-        if self._margin > 0:
-            self._clear = [(lo + self._margin, hi - self._margin)
-                           for lo, hi in zip(self._lower, self._upper, strict=True)]
-        else:
-            self._clear = None
-        self._zero_damp = -self._c_limit * 0.0
 
     @property
     def task_pose(self) -> np.ndarray:
@@ -125,30 +120,10 @@ class DirectSpine:
         else:
             tau = self._held
         if self.actuated:  # what the node does to a controller's torque before the motors get it
-            self._tau = self._node_limits(tau, q_spine, dq_spine)
+            a, b, c, _, _ = _limit_torque(tau, q_spine, dq_spine, self._limits)
+            self._tau = [a, b, c]
         else:
             self._tau = tau
-
-    def _node_limits(self, tau: list[float], q_spine, dq_spine) -> list[float]:
-        """`safety.joint_limit_damping_list` added, then `safety.clamp_torque_list`: the node's path, with
-        both functions' usual-tick shortcuts taken here without building their lists."""
-        qa, qb, qc = q_spine
-        clear = self._clear
-        if (clear is not None and clear[0][0] <= qa <= clear[0][1] and clear[1][0] <= qb <= clear[1][1]
-                and clear[2][0] <= qc <= clear[2][1]):
-            z = self._zero_damp  # depth 0: each extra is -c * 0.0 * dq (a signed zero, NaN for inf dq)
-            da, db, dc = dq_spine
-            a, b, c = tau[0] + z * da, tau[1] + z * db, tau[2] + z * dc
-        else:
-            (ea, eb, ec), _ = safety.joint_limit_damping_list([float(qa), float(qb), float(qc)],
-                                                              [float(v) for v in dq_spine], self._lower,
-                                                              self._upper, self._margin, self._c_limit)
-            a, b, c = tau[0] + ea, tau[1] + eb, tau[2] + ec
-        lim = self._tau_max
-        if -lim <= a <= lim and -lim <= b <= lim and -lim <= c <= lim:
-            return [a, b, c]
-        out, _ = safety.clamp_torque_list([a, b, c], lim)
-        return out
 
     def finish(self) -> list[float]:
         return self._tau

@@ -17,7 +17,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -44,6 +44,20 @@ _MOTOR, _CONTROLLER, _BUS = int(Fault.MOTOR), int(Fault.CONTROLLER), int(Fault.B
 _JOINT_LIMIT, _TORQUE_CLAMPED = int(Fault.JOINT_LIMIT), int(Fault.TORQUE_CLAMPED)
 _IMPEDANCE, _PD = int(Mode.IMPEDANCE), int(Mode.PD)
 _DAMPING, _JOINT_TORQUE = int(Mode.DAMPING), int(Mode.JOINT_TORQUE)
+_MODE_DISABLED = Mode.DISABLED
+# the 1 kHz path's globals bound once, and its constant arrays (copied, never handed out)
+_perf_counter, _isfinite = time.perf_counter, math.isfinite
+_supervise_values, _limit_torque, _Receipts = safety.supervise_values, safety.limit_torque, safety.Receipts
+_ndarray, _F64 = np.ndarray, np.dtype(np.float64)
+_ZERO_FLOATS3 = (0.0, 0.0, 0.0)
+_NAN3, _NAN2 = np.full(3, np.nan), np.full(2, np.nan)
+# the tick builds SpineState positionally (keywords cost ~1 us a tick): in this order
+_STATE_FIELDS = ("stamp_s", "seq", "mode", "requested_mode", "faults", "rejected", "q", "dq", "tau_cmd",
+                 "tau_est", "x", "dx", "gain_scale", "load_cell", "temperature", "period", "jitter_max",
+                 "compute", "feedback_seq", "command_seq", "torso_seq")
+if tuple(f.name for f in fields(SpineState)) != _STATE_FIELDS:
+    raise ImportError(f"SpineState's fields changed order: {[f.name for f in fields(SpineState)]}; update "
+                      "runner._STATE_FIELDS and SpineNode.tick")
 
 
 @dataclass
@@ -107,9 +121,8 @@ class SpineNode:
         self._ramp_key: float | None = None  # ramp start time the ramp origin below belongs to
         self._ramp_from: np.ndarray | None = None
         self._set_ctrl: object | None = None  # controller whose gains and target were last set, and from what
-        self._set_for: list = []
-        self._lower = np.asarray(self.cfg.safety.lower, dtype=float).tolist()
-        self._upper = np.asarray(self.cfg.safety.upper, dtype=float).tolist()
+        self._set_for: tuple = ()
+        self._limits = safety.TorqueLimits.from_config(self.cfg.safety)  # the output stage's numbers
 
     @property
     def safety(self) -> safety.SafetyState:
@@ -146,9 +159,11 @@ class SpineNode:
             self._ratelog("bus", now, logging.ERROR, "motor bus error: %s", exc)
 
     def _accept_feedback(self, fb: MotorFeedback, now: float) -> None:
-        try:  # numpy feedback (every bus): three tolists and one C-level finiteness pass
+        try:  # numpy feedback (every bus): three tolists and nine isfinite calls (no temporary list)
             q, dq, tau = fb.q.tolist(), fb.dq.tolist(), fb.tau.tolist()
-            if not (len(q) == 3 and len(dq) == 3 and len(tau) == 3 and all(map(math.isfinite, q + dq + tau))):
+            f = _isfinite
+            if not (len(q) == 3 and len(dq) == 3 and len(tau) == 3 and f(q[0]) and f(q[1]) and f(q[2])
+                    and f(dq[0]) and f(dq[1]) and f(dq[2]) and f(tau[0]) and f(tau[1]) and f(tau[2])):
                 q = None
         except (AttributeError, TypeError):  # lists, tuples, nested arrays: one by one
             q, dq = _finite3(fb.q), _finite3(fb.dq)
@@ -163,7 +178,7 @@ class SpineNode:
         self.fb = fb
         self._fb_q, self._fb_dq = q, dq
         fault = fb.fault
-        self._fb_motor_fault = any((fault if type(fault) is np.ndarray else np.asarray(fault)).tolist())
+        self._fb_motor_fault = any((fault if type(fault) is _ndarray else np.asarray(fault)).tolist())
         self._rx_feedback = now
 
     def _flag_bad(self, bit: Fault | int, now: float) -> None:
@@ -174,12 +189,11 @@ class SpineNode:
         """Run one control step at node time `now` with the feedback received for it (None: none new).
 
         Returns a new SpineState (callers may keep it; nothing in it is reused by a later tick)."""
-        t_start = time.perf_counter()
+        t_start = _perf_counter()
         stats = self.stats
         stats.mark(time.monotonic() if wall_s is None else wall_s)
         self.last_now = now
         cfg = self.cfg
-        scfg = cfg.safety
         if feedback is not None:
             self._accept_feedback(feedback, now)
         io = self.io
@@ -200,12 +214,11 @@ class SpineNode:
             self._rx_heartbeat = now
 
         command = self.command
-        requested = command.mode if command is not None else Mode.DISABLED
-        self._sv = sv = safety.supervise_values(
-            self._sv, now, _tuple_new(safety.Receipts, (self._rx_torso, self._rx_feedback, self._rx_command,
-                                                        self._rx_heartbeat)), int(requested), reset, scfg)
-        mode_i, faults, scale, default_gains, enable = sv.mode, sv.faults, sv.gain_scale, sv.default_gains, \
-            sv.enable
+        requested = command.mode if command is not None else _MODE_DISABLED
+        self._sv = sv = _supervise_values(
+            self._sv, now, _tuple_new(_Receipts, (self._rx_torso, self._rx_feedback, self._rx_command,
+                                                  self._rx_heartbeat)), int(requested), reset, cfg.safety)
+        _, _, mode_i, _, _, _, faults, scale, default_gains, enable = sv
         mode = MODES[mode_i]
         # fault bits as a plain int inside the tick (IntFlag arithmetic costs ~1 us per operation)
         if self._pending_bus_fault:
@@ -220,41 +233,42 @@ class SpineNode:
         torso, fb = self.torso, self.fb
         q1, dq1 = (torso.q1, torso.dq1) if torso is not None else (0.0, 0.0)
         if fb is not None:
-            q_l, dq_l = [q1, *self._fb_q], [dq1, *self._fb_dq]
+            fq, fdq = self._fb_q, self._fb_dq
             if self._fb_motor_fault:
                 faults |= _MOTOR
         else:
-            q_l, dq_l = [q1, 0.0, 0.0, 0.0], [dq1, 0.0, 0.0, 0.0]
-        q, dq = np.array(q_l), np.array(dq_l)
-        tau_l = [0.0, 0.0, 0.0]
+            fq = fdq = _ZERO_FLOATS3
+        q, dq = np.array((q1, *fq)), np.array((dq1, *fdq))
         x = dx = None
-        controlled = mode_i == _IMPEDANCE or mode_i == _PD
-        controller_failed = False
-        if controlled:
+        # the output stage (joint-limit damping, clamp) acts on every torque a mode commands; the others
+        # (disabled, E-stop, a failed controller) send zeros
+        limited = True
+        if mode_i == _IMPEDANCE or mode_i == _PD:
             tau_l, x, dx, ok = self._control(mode_i, scale, default_gains, q, dq)
             if not ok:
                 faults |= _CONTROLLER
-                controller_failed = True
+                limited = False
         else:
             if fb is not None and math.isfinite(q1) and math.isfinite(dq1):
                 x, dx = self.ctrl.task_state(q, dq)
             if mode_i == _JOINT_TORQUE:
                 tau_l = np.asarray(command.tau_ff, dtype=float).tolist()
             elif mode_i == _DAMPING:
-                tau_l = safety.damping_torque(dq_l[1:], scfg.damping_mode)
-        if (controlled or mode_i == _DAMPING or mode_i == _JOINT_TORQUE) and not controller_failed:
-            extra, near = safety.joint_limit_damping_list(q_l[1:], dq_l[1:], self._lower, self._upper,
-                                                          scfg.limit_margin, scfg.joint_limit_damping)
-            if any(near):
+                tau_l = safety.damping_torque(fdq, cfg.safety.damping_mode)
+            else:
+                limited = False
+        if limited:
+            a, b, c, near, clamped = _limit_torque(tau_l, fq, fdq, self._limits)
+            if near:
                 faults |= _JOINT_LIMIT
-                tau_l = [a + b for a, b in zip(tau_l, extra, strict=True)]
-        tau_l, sat = safety.clamp_torque_list(tau_l, scfg.torque_limit)
-        if any(sat):
-            faults |= _TORQUE_CLAMPED
-        tau = np.array(tau_l) if enable else np.zeros(3)
+            if clamped:
+                faults |= _TORQUE_CLAMPED
+            tau = np.array((a, b, c)) if enable else np.zeros(3)
+        else:
+            tau = np.zeros(3)
         if x is None:
-            x = np.full(3, np.nan)
-            dx = np.full(3, np.nan)
+            x = _NAN3.copy()
+            dx = _NAN3.copy()
 
         cmd = MotorCommand(tau, _ZEROS3, _ZEROS3, _ZEROS3, _ZEROS3, enable, now, self.seq)  # torque-only
         self.last_command = cmd
@@ -274,24 +288,25 @@ class SpineNode:
 
         if faults != self._last_faults:
             self._log_transitions(faults, mode, now)
-        fb = self.fb
         if fb is not None:
             tau_est, fb_seq = fb.tau.copy(), fb.seq
-            load_cell = np.array(fb.load_cell_n, dtype=float)
-            temperature = np.array(fb.temperature_c, dtype=float)
+            lc, temp = fb.load_cell_n, fb.temperature_c
+            load_cell = lc.copy() if type(lc) is _ndarray and lc.dtype is _F64 else np.array(lc, dtype=float)
+            temperature = (temp.copy() if type(temp) is _ndarray and temp.dtype is _F64
+                           else np.array(temp, dtype=float))
         else:
-            tau_est, fb_seq, load_cell, temperature = np.zeros(3), -1, np.full(2, np.nan), np.zeros(3)
-        s = SpineState(
-            stamp_s=now, seq=self.seq, mode=mode, requested_mode=requested, faults=_fault(faults),
-            rejected=self.rejected, q=q, dq=dq, tau_cmd=tau, tau_est=tau_est, x=x, dx=dx, gain_scale=scale,
-            load_cell=load_cell, temperature=temperature, period=stats.period, jitter_max=stats.jitter_max,
-            compute=time.perf_counter() - t_start, feedback_seq=fb_seq,
-            command_seq=command.seq if command is not None else -1,
-            torso_seq=self.torso.seq if self.torso is not None else -1)
+            tau_est, fb_seq, load_cell, temperature = np.zeros(3), -1, _NAN2.copy(), np.zeros(3)
+        seq = self.seq
+        torso = self.torso
+        # positional, in the field order checked at import (_STATE_FIELDS): keywords cost ~1 us more
+        s = SpineState(now, seq, mode, requested, _fault(faults), self.rejected, q, dq, tau, tau_est, x, dx,
+                       scale, load_cell, temperature, stats.period, stats.jitter_max,
+                       _perf_counter() - t_start, fb_seq, command.seq if command is not None else -1,
+                       torso.seq if torso is not None else -1)
         self.state = s
-        if self.seq % cfg.state_every == 0:
+        if seq % cfg.state_every == 0:
             io.publish_state(s)
-        self.seq += 1
+        self.seq = seq + 1
         return s
 
     def _control(self, mode: int, scale: float, default_gains: bool, q: np.ndarray, dq: np.ndarray):
@@ -300,29 +315,32 @@ class SpineNode:
             ctrl = self.ctrl.pd
         else:
             ctrl = self.ctrl.impedance
-            ctrl.friction_enabled = c.friction_compensation or default_gains
-        ddq1 = self.torso.ddq1 if self.torso is not None and self.torso.ddq1_valid else 0.0
+        torso = self.torso
+        ddq1 = torso.ddq1 if torso is not None and torso.ddq1_valid else 0.0
         try:
-            # gains and target change only with the command's numbers, the soft-start scale or the
-            # controller: set them then, not every tick (a stream of equal commands costs one compare)
+            # gains, target and the friction switch change only with the command's numbers, the
+            # soft-start scale or the controller: set them then, not every tick (a stream of equal
+            # commands costs one compare)
             key = _gains_key(c, scale, default_gains, self._sv.ramp_t0)
             if ctrl is not self._set_ctrl or key != self._set_for:
                 self._set_ctrl = None
+                if mode != _PD:
+                    ctrl.friction_enabled = c.friction_compensation or default_gains
                 self._set_gains_and_target(ctrl, c, scale, default_gains, q, dq)
                 self._set_ctrl, self._set_for = ctrl, key
             out = ctrl.step(q, dq, ddq1=ddq1)
         except Exception as exc:  # the loop never dies; the controller promises not to raise anyway
             self._set_ctrl = None
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller raised: %r", exc)
-            return [0.0, 0.0, 0.0], np.full(3, np.nan), np.full(3, np.nan), False
+            return [0.0, 0.0, 0.0], _NAN3.copy(), _NAN3.copy(), False
         x, dx = out.x, out.dx
-        x = x.copy() if type(x) is np.ndarray and x.dtype == np.float64 else np.array(x, dtype=float)
-        dx = dx.copy() if type(dx) is np.ndarray and dx.dtype == np.float64 else np.array(dx, dtype=float)
+        x = x.copy() if type(x) is _ndarray and x.dtype is _F64 else np.array(x, dtype=float)
+        dx = dx.copy() if type(dx) is _ndarray and dx.dtype is _F64 else np.array(dx, dtype=float)
         if not out.ok:
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller not ok: %s",
                           out.error)
             return [0.0, 0.0, 0.0], x, dx, False
-        tau = np.asarray(out.tau, dtype=float).tolist()
+        tau = _floats(out.tau)
         if not default_gains:
             ff = _floats(c.tau_ff)
             if len(tau) == 3 == len(ff):
@@ -412,7 +430,7 @@ class SpineNode:
 
 
 def _floats(a: object) -> list[float]:
-    if type(a) is np.ndarray and a.dtype == np.float64:
+    if type(a) is _ndarray and a.dtype is _F64:
         return a.tolist()
     return np.asarray(a, dtype=float).tolist()
 
@@ -428,17 +446,21 @@ def _finite3(a: object) -> list[float] | None:
     return None
 
 
-def _gains_key(c: SpineCommand, scale: float, default_gains: bool, ramp_t0: float | None) -> list:
-    """Everything the controller's gains and target are computed from, as plain numbers."""
-    try:  # decoded commands hold float64 arrays: one tolist each
-        key = [scale, default_gains, ramp_t0, *c.x_d.tolist()]
-        if not default_gains:
-            key += (*c.k.tolist(), *c.d.tolist(), *c.dx_d.tolist(), *c.ddx_d.tolist())
-    except AttributeError:
-        key = [scale, default_gains, ramp_t0, *_floats(c.x_d)]
-        if not default_gains:
-            key += (*_floats(c.k), *_floats(c.d), *_floats(c.dx_d), *_floats(c.ddx_d))
-    return key
+def _gains_key(c: SpineCommand, scale: float, default_gains: bool, ramp_t0: float | None) -> tuple:
+    """Everything the controller's gains, target and friction switch are computed from."""
+    x_d = c.x_d
+    if type(x_d) is _ndarray and x_d.dtype is _F64:  # decoded commands: five float64 arrays, their bytes
+        if default_gains:
+            return scale, True, ramp_t0, x_d.tobytes()
+        try:
+            return (scale, False, ramp_t0, c.friction_compensation, x_d.tobytes(), c.k.tobytes(),
+                    c.d.tobytes(), c.dx_d.tobytes(), c.ddx_d.tobytes())
+        except AttributeError:  # a hand-built command mixing arrays and sequences
+            pass
+    if default_gains:
+        return scale, True, ramp_t0, *_floats(x_d)
+    return (scale, False, ramp_t0, c.friction_compensation, *_floats(x_d), *_floats(c.k), *_floats(c.d),
+            *_floats(c.dx_d), *_floats(c.ddx_d))
 
 
 _FAULTS: dict[int, Fault] = {}

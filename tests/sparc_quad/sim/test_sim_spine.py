@@ -91,35 +91,41 @@ def test_skips_are_declared():
     assert any("watchdog" in s for s in DirectSpine.SKIPS)
 
 
-def _node_reference(spine: DirectSpine, tau, q, dq) -> list[float]:
-    """What the node does to a controller torque: joint-limit damping added, then the clamp."""
-    extra, _ = safety.joint_limit_damping_list(list(q), list(dq), spine._lower, spine._upper, spine._margin,
-                                               spine._c_limit)
-    out, _ = safety.clamp_torque_list([a + b for a, b in zip(tau, extra, strict=True)], spine._tau_max)
-    return out
+def _node_reference(tau, q, dq, lim: safety.SafetyConfig) -> tuple[list[float], bool, bool]:
+    """What the node's tick does to a controller torque: joint-limit damping added where a joint is near
+    its limit, then the clamp."""
+    extra, near = safety.joint_limit_damping_list(list(q), list(dq), lim.lower.tolist(), lim.upper.tolist(),
+                                                  lim.limit_margin, lim.joint_limit_damping)
+    if any(near):
+        tau = [a + b for a, b in zip(tau, extra, strict=True)]
+    out, sat = safety.clamp_torque_list(list(tau), lim.torque_limit)
+    return out, any(near), any(sat)
 
 
-def test_direct_spine_limits_equal_the_node_functions_bit_for_bit():
-    """The direct path's inline shortcuts give the node functions' doubles (signed zeros and NaN included)
-    on states clear of the margins, inside them, beyond the limits, saturating and non-finite."""
-    spine = DirectSpine(SpineGains())
+def test_direct_spine_limits_equal_the_node_bit_for_bit():
+    """The direct path's output stage is the node's (`safety.limit_torque`): the same doubles (NaN
+    included) on states clear of the margins, inside them, beyond the limits, saturating and non-finite."""
+    lim = safety.SafetyConfig()
+    gains = SpineGains(k=(300.0, 300.0, 6.0), d=(3.0, 3.0, 0.1))
+    spine, raw = DirectSpine(gains), make_spine_drive(gains)
     rng = np.random.default_rng(3)
-    lo, hi, lim = np.array(spine._lower), np.array(spine._upper), spine._tau_max
-    cases = 0
-    for k in range(3000):
-        q = rng.uniform(lo - 0.3, hi + 0.3)
-        dq = rng.normal(0.0, 3.0, 3) * (k % 7 != 0)  # some zero rates: signed zeros of the damping
-        tau = rng.normal(0.0, lim, 3)
+    lo, hi = lim.lower, lim.upper
+    near = clamped = 0
+    for k in range(1500):
+        q = rng.uniform(lo - 0.3, hi + 0.3) if k % 3 else rng.uniform(lo + 0.1, hi - 0.1)
+        dq = rng.normal(0.0, 3.0, 3) * (k % 7 != 0)
         if k % 97 == 0:
             q[k % 3] = np.nan
-        if k % 89 == 0:
-            tau[k % 3] = np.inf
-        q, dq, tau = q.tolist(), dq.tolist(), tau.tolist()
-        got, want = spine._node_limits(tau, q, dq), _node_reference(spine, tau, q, dq)
+        q, dq = q.tolist(), dq.tolist()
+        spine.begin(EST, q, dq, 0.0)
+        got = spine.finish()
+        tau = raw.step(np.array([0.0, *q]), np.array([0.0, *dq]), 0.0).tolist()
+        want, was_near, was_clamped = _node_reference(tau, q, dq, lim)
         assert np.array_equal(got, want, equal_nan=True), (q, dq, tau)
         assert np.array_equal(np.signbit(got), np.signbit(want)), (q, dq, tau)
-        cases += 1
-    assert cases == 3000
+        near += was_near
+        clamped += was_clamped
+    assert near > 50 and clamped > 50, (near, clamped)
 
 
 def test_clocked_drives_declare_it():
