@@ -15,7 +15,14 @@ runs `--repeat` times, interleaved (a burst of load hits both alike); each figur
   bench/cosim.py). The thread's CPU clock (time.thread_time) around each ~20 us step was tried and is not
   usable on this machine: under load its sum over a bound exceeded the whole process's CPU time.
 - phases: one profiled run per engine (run_bound's per-phase perf_counter accumulators; `physics` there
-  is world.step: torques in, engine step, state read).
+  is world.step: torques in, engine step, state read). Profiling runs every step through the full path,
+  so these shares are the full path's.
+- held steps: MuJoCo runs the steps between the gait's control calls in chunks (`QuadWorld.step_chunk`,
+  see sparc_quad/sim/bound_run.py); `held_share` is the share of steps that went through them. The same
+  bound with every step through the full path (`run_bound(..., held_steps=False)`, identical series) is
+  run alongside, interleaved, as `mujoco_full_path`, and `held_over_full_loop` is the ratio of the two
+  loops' sim s per CPU s measured in this run. In a chunk the engine-step time is still the sum of the
+  perf_counter intervals around each mj_step, so the physics share means the same on both paths.
 
 Goal: the MuJoCo bound of the spined dog at >= 20 simulated s per CPU s with physics >= 0.5.
 
@@ -44,12 +51,13 @@ def trial(engine: str, host: str, duration_s: float) -> dict:
             "step_length": 0.08, "kx": 800.0, "seed": 0}
 
 
-def one_run(engine: str, host: str, duration_s: float, profile: dict | None = None) -> dict:
+def one_run(engine: str, host: str, duration_s: float, profile: dict | None = None,
+            held_steps: bool = True) -> dict:
     cfg = bound_config(trial(engine, host, duration_s))
     c0, w0 = time.process_time(), time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a short or fallen run's metric warnings
-        res = run_bound(cfg, profile=profile)
+        res = run_bound(cfg, profile=profile, held_steps=held_steps)
     cpu, call_wall = time.process_time() - c0, time.perf_counter() - w0
     m = res.metrics
     sim = m["simulated_s"]
@@ -68,6 +76,7 @@ def one_run(engine: str, host: str, duration_s: float, profile: dict | None = No
         # time, and the loop alone: the call's CPU scaled by the loop's share of its wall time
         "outside_loop_share": 1.0 - m["wall_time_s"] / call_wall,
         "loop_only_sim_s_per_cpu_s": sim / (cpu * m["wall_time_s"] / call_wall),
+        "held_share": m["held_steps"] / max(1, len(res.series)),
         "spine_backend": m.get("spine_backend"),
         "gait_backend": m.get("gait_backend"),
     }
@@ -86,9 +95,12 @@ def main() -> int:
     engines = [e for e in ENGINES if engine_error(e) is None]
     skipped = {e: engine_error(e) for e in ENGINES if e not in engines}
     runs: dict[str, list[dict]] = {e: [] for e in engines}
+    full: list[dict] = []  # MuJoCo with every step through the full path
     for _ in range(args.repeat):
         for e in engines:
             runs[e].append(one_run(e, args.host, args.duration))
+            if e == "mujoco":
+                full.append(one_run(e, args.host, args.duration, held_steps=False))
     result: dict = {"host": args.host, "trial": trial("<engine>", args.host, args.duration),
                     "repeat": args.repeat, "skipped": skipped}
     for e in engines:
@@ -99,6 +111,10 @@ def main() -> int:
         result[e] = {**best, "phase_share": {k: prof[k] / total for k in PROFILE_PHASES},
                      "phase_us_per_step": {k: 1e6 * prof[k] / (args.duration * 1000) for k in PROFILE_PHASES},
                      "all_runs": runs[e]}
+    if full:
+        result["mujoco_full_path"] = {**max(full, key=lambda r: r["loop_sim_s_per_cpu_s"]), "all_runs": full}
+        result["held_over_full_loop"] = (result["mujoco"]["loop_sim_s_per_cpu_s"]
+                                         / result["mujoco_full_path"]["loop_sim_s_per_cpu_s"])
     if "mujoco" in result and "pybullet" in result:
         result["mujoco_over_pybullet_loop"] = (result["mujoco"]["loop_sim_s_per_cpu_s"]
                                                / result["pybullet"]["loop_sim_s_per_cpu_s"])
@@ -118,7 +134,13 @@ def main() -> int:
               f"{r['engine_sim_s_per_s']:6.1f} sim s/s, physics share {r['physics_share']:.2f}, loop alone "
               f"{r['loop_only_sim_s_per_cpu_s']:.1f} sim s/CPU s ({r['outside_loop_share']:.2f} of the run "
               f"outside it); "
-              f"fell {r['fell']} ({r['fall_time_s']}), {r['speed_m_s']} m/s; loop shares (wall): {phases}")
+              f"held {r['held_share']:.2f} of the steps; "
+              f"fell {r['fell']} ({r['fall_time_s']}), {r['speed_m_s']} m/s; "
+              f"full path's shares (wall): {phases}")
+    if full:
+        f = result["mujoco_full_path"]
+        print(f"mujoco, every step in full: loop {f['loop_sim_s_per_cpu_s']:6.2f} sim s/CPU s, physics share "
+              f"{f['physics_share']:.2f}; held / full loop {result['held_over_full_loop']:.3f} (this run)")
     for e, why in skipped.items():
         print(f"{e:9s} skipped: {why}")
     if "goal" in result:

@@ -292,8 +292,9 @@ def run_bound(
                 s0 = s = i
                 for t1, q1, dq1, roll, q_sp1, dq_sp1, body in step_chunk(k, i):
                     # the state after step s: its fall check, then (inside the chunk) step s + 1's catch-up
+                    pf1 = q1 + sum(q_sp1)
                     if not fell:
-                        reason = _fall_reason(body, q1, q1 + sum(q_sp1), roll, slope)
+                        reason = _fall_reason(body, q1, pf1, roll, slope)
                         if reason is not None:
                             fell, fall_t, first_reason = True, t1, reason
                             if cfg.stop_on_fall:
@@ -311,8 +312,8 @@ def run_bound(
                         break
                     task = spine.task_pose
                     task = task.tolist() if type(task) is ndarray else task
-                    pack_aux(aux, s * aux_bytes, s0, t1, est.q1, est.dq1, est.ddq1, q1 + sum(q_sp1), *task,
-                             gait_phase(), gait_frequency(), spine.energy_j)
+                    pack_aux(aux, s * aux_bytes, s0, t1, est.q1, est.dq1, est.ddq1, pf1, *task, gait_phase(),
+                             gait_frequency(), spine.energy_j)
                 if fell and cfg.stop_on_fall:
                     i = s + 1
                     break

@@ -168,8 +168,11 @@ class MujocoWorld(QuadWorld):
         self._leg_dadr = [dadr[self.pos_in_movable[j]] if j != ABSENT else -1
                           for k in ("HL", "HR", "FL", "FR") for j in self.leg_idx[k]]
         self._sens = self.data.sensordata
-        self._foot_force_adr = [int(m.sensor_adr[m.sensor(f"contact_{k}").id]) + 1
-                                for k in ("HL", "HR", "FL", "FR")]
+        force_adr = {k: int(m.sensor_adr[m.sensor(f"contact_{k}").id]) + 1 for k in self.legs}
+        self._foot_keys = tuple(self.legs)
+        self._foot_force_adr = [force_adr[k] for k in self._foot_keys]  # read's order
+        self._held_force_adr = [force_adr[k] for k in ("HL", "HR", "FL", "FR")]  # HELD_STATE's
+        self.can_rewind = False  # read's contact scan until the check below
         self.can_rewind = self._contacts_are_feet_on_floor()
         self._snap = np.zeros(mujoco.mj_stateSize(m, STATE_ALL))
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
@@ -236,6 +239,12 @@ class MujocoWorld(QuadWorld):
 
     def _read_contacts(self) -> None:
         """contact_force, other_contact, body_contact from the contacts the last step solved."""
+        if self.can_rewind:  # one sphere per foot on the plane, nothing else touches it: the foot sensors
+            sens = self._sens.tolist()
+            self.contact_force = dict(zip(self._foot_keys, [sens[a] for a in self._foot_force_adr],
+                                          strict=True))
+            self.other_contact = self.body_contact = False
+            return
         d = self.data
         self.contact_force = force = dict.fromkeys(self.legs, 0.0)
         self.other_contact = False
@@ -338,13 +347,18 @@ class MujocoWorld(QuadWorld):
         self.read()
         states = []
         dt, held_q, held_dq = self.cfg.dt_s, self._held_q, self._held_dq
+        atan2 = math.atan2
         for r, (qp, qv) in enumerate(zip(qb[row + 1:row + k + 1].tolist(), vb[row + 1:row + k + 1].tolist(),
                                           strict=True), start=1):
-            rot = _rotation(*qp[3:7])
+            # read's q1, dq1 and roll: the rotation matrix's entries 0 and 3..8 (`_rotation`)
+            qw, qx, qy, qz = qp[3:7]
             wx, wy, wz = qv[3:6]
-            states.append(((steps0 + r) * dt, math.atan2(-rot[6], rot[0]),
-                           rot[3] * wx + rot[4] * wy + rot[5] * wz, math.atan2(rot[7], rot[8]),
-                           list(held_q(qp)), list(held_dq(qv)), False))
+            r0 = 1 - 2 * (qy * qy + qz * qz)
+            dq1 = (2 * (qx * qy + qw * qz) * wx + (1 - 2 * (qx * qx + qz * qz)) * wy
+                   + 2 * (qy * qz - qw * qx) * wz)
+            states.append(((steps0 + r) * dt, atan2(-(2 * (qx * qz - qw * qy)), r0), dq1,
+                           atan2(2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)),
+                           held_q(qp), held_dq(qv), False))
         return states
 
     def rewind(self, r: int) -> None:
@@ -380,7 +394,7 @@ class MujocoWorld(QuadWorld):
         out[:, 6] = atan2(rot[3], rot[0])
         out[:, 7:10] = qp[:, self._spine_qadr]
         out[:, 10:13] = qv[:, self._spine_dadr]
-        out[:, 13:17] = sn[:, self._foot_force_adr] > 0.0
+        out[:, 13:17] = sn[:, self._held_force_adr] > 0.0
         legs = np.asarray(self._leg_dadr)
         present = legs >= 0
         out[:, 17:][:, present] = qv[:, legs[present]]
