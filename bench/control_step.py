@@ -11,8 +11,6 @@ robust to a shared, noisy machine.
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import statistics
 import time
 from collections.abc import Callable
@@ -20,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from bench_io import emit, host_facts
 
 from spine_module import params as P
 from spine_module.control import ImpedanceController, StribeckFriction, TaskPDController
@@ -92,14 +91,9 @@ def main() -> int:
         "goal_pd_over_rnea": 3.0,
         "backend": imp.backend,
         "clock": args.clock,
-        "loadavg": Path("/proc/loadavg").read_text().split()[:3] if Path("/proc/loadavg").exists() else None,
-        "python": platform.python_version(), "pinocchio": pin.__version__, "machine": platform.machine(),
+        **host_facts(),
     })
-    for k, v in result.items():
-        print(f"{k:34s} {v:.3f}" if isinstance(v, float) else f"{k:34s} {v}")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result, indent=2))
+    emit(result, args.json, width=34)
     return 0
 
 

@@ -16,8 +16,6 @@ machine do not land in the numbers. Medians over batches (and the ratio of the f
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import statistics
 import sys
 import time
@@ -27,6 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # time this che
 
 import numpy as np
 import pinocchio as pin
+from bench_io import emit, host_facts
 
 from spine_module import params as P
 from spine_module.buses.base import MotorCommand, MotorFeedback
@@ -147,14 +146,8 @@ def main() -> int:
     res["ticks"] = per_batch * args.batches
     res["clock"] = args.clock
     res["backend"] = imp.backend
-    res["loadavg"] = Path("/proc/loadavg").read_text().split()[:3] if Path("/proc/loadavg").exists() else None
-    res["python"] = platform.python_version()
-    res["pinocchio"] = pin.__version__
-    for key, v in res.items():
-        print(f"{key:28s} {v:.3f}" if isinstance(v, float) else f"{key:28s} {v}")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(res, indent=2))
+    res.update(host_facts())
+    emit(res, args.json)
     return 0
 
 

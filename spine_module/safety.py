@@ -210,7 +210,12 @@ def supervise_values(prev: Supervised, now: float, rx: Receipts, requested: int,
             resumed = was_stale and ramp_t0 is not None
             if not resumed and (last_mode not in _RAMPED or ramp_t0 is None):
                 ramp_t0 = now
-            scale = 1.0 if cfg.soft_start_s <= 0 else min(1.0, max(0.0, (now - ramp_t0) / cfg.soft_start_s))
+            ramp_s = cfg.soft_start_s
+            if ramp_s <= 0:
+                scale = 1.0
+            else:  # min(1, max(0, r)) as comparisons (NaN gives 0 as there)
+                r = (now - ramp_t0) / ramp_s
+                scale = 1.0 if r >= 1.0 else r if r > 0.0 else 0.0
         else:
             ramp_t0 = None
             scale = 1.0 if mode in _TORQUE else 0.0

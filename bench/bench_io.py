@@ -1,0 +1,25 @@
+"""How a performance script ends: the host facts beside its numbers, one printed line per result, the JSON."""
+
+from __future__ import annotations
+
+import json
+import platform
+from pathlib import Path
+
+import pinocchio as pin
+
+
+def host_facts() -> dict[str, object]:
+    """Load average (1, 5, 15 min), Python, pinocchio and machine: what a ratio was measured on."""
+    load = Path("/proc/loadavg")
+    return {"loadavg": load.read_text().split()[:3] if load.exists() else None,
+            "python": platform.python_version(), "pinocchio": pin.__version__, "machine": platform.machine()}
+
+
+def emit(result: dict[str, object], json_path: Path | None, width: int = 28) -> None:
+    """Print `result` a line per key (floats to 3 decimals) and write it to `json_path` when given."""
+    for key, v in result.items():
+        print(f"{key:{width}s} {v:.3f}" if isinstance(v, float) else f"{key:{width}s} {v}")
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(result, indent=2))
