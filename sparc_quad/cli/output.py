@@ -48,12 +48,17 @@ def atomic_dir(out: Path) -> Iterator[Path]:
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise BadInput(f"--out {out} exists and is not a folder")
+    # SIGINT/SIGTERM held from before the folder exists until its removal is guaranteed: an interrupt
+    # landing inside mkdtemp (after its mkdir, before it returns) would otherwise leave the folder behind
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     except OSError as exc:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
         raise BadInput(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
     try:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)  # a pending interrupt is raised here, inside
         yield tmp
         _commit(tmp, out)
     except Exception as exc:
@@ -61,7 +66,11 @@ def atomic_dir(out: Path) -> Iterator[Path]:
             exc.partial_outputs = _keep(tmp, out)  # type: ignore[attr-defined]
         raise
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)  # a second Ctrl-C must not cut the clean-up short
+        try:
+            shutil.rmtree(tmp, ignore_errors=True)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 
 
 def _keep(tmp: Path, out: Path) -> Path | None:

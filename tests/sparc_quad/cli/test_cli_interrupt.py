@@ -116,3 +116,28 @@ def test_atomic_dir_is_whole_or_untouched(tmp_path):
     assert (out / "previous.json").read_text() == "new"
     assert (out / "other.log").read_text() == "another program's log"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
+
+
+def test_an_interrupt_inside_the_folder_creation_still_removes_the_folder(tmp_path, monkeypatch):
+    """The signal lands after mkdtemp's mkdir and before it returns (what a Ctrl-C timed by the folder's
+    appearance can hit): it is held until the folder is in the clean-up's hands."""
+    import os
+    import tempfile
+
+    real_mkdtemp = tempfile.mkdtemp
+
+    def mkdtemp_then_sigint(*args, **kwargs):
+        path = real_mkdtemp(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)
+        return path
+
+    monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp_then_sigint)
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's Ctrl-C, whatever runs us
+    out = tmp_path / "out"
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with atomic_dir(out):
+                raise AssertionError("the held interrupt must be raised before the body runs")
+    finally:
+        signal.signal(signal.SIGINT, old)
+    assert not list(tmp_path.glob(".out.*")), "temporary folder left behind"
