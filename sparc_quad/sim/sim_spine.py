@@ -8,10 +8,10 @@ The reference is the spine node (`sparc_quad.robot_side.quad.NodeSpine`): the ro
 with its soft start, joint-limit damping, torque clamp, watchdogs and E-stop, fed CyberGear-quantised
 feedback through the motor model (MIT Cheetah-Software's SimulationBridge likewise always runs the
 RobotRunner). `DirectSpine` is its declared fast configuration: the same controller classes called in
-process, with the node's joint-limit damping and torque clamp (the same `spine_module.safety` functions and
-`SafetyConfig` numbers) on the motor-rendered variants. What it leaves out is listed in
-`DirectSpine.SKIPS`; each item there needs a transport, a clock of its own or a start from rest, which a
-simulated step handed its state in memory does not have.
+process, with the node's joint-limit damping and torque clamp (the function the node's tick calls,
+`spine_module.safety.limit_torque`, with `SafetyConfig`'s numbers) on the motor-rendered variants. What
+it leaves out is listed in `DirectSpine.SKIPS`; each item there needs a transport, a clock of its own or a
+start from rest, which a simulated step handed its state in memory does not have.
 """
 
 from __future__ import annotations
