@@ -170,7 +170,7 @@ class MujocoWorld(QuadWorld):
         self._sens = self.data.sensordata
         force_adr = {k: int(m.sensor_adr[m.sensor(f"contact_{k}").id]) + 1 for k in self.legs}
         self._foot_keys = tuple(self.legs)
-        self._foot_force_adr = [force_adr[k] for k in self._foot_keys]  # read's order
+        self._foot_forces = operator.itemgetter(*(force_adr[k] for k in self._foot_keys))  # read's order
         self._held_force_adr = [force_adr[k] for k in ("HL", "HR", "FL", "FR")]  # HELD_STATE's
         self.can_rewind = False  # read's contact scan until the check below
         self.can_rewind = self._contacts_are_feet_on_floor()
@@ -240,9 +240,8 @@ class MujocoWorld(QuadWorld):
     def _read_contacts(self) -> None:
         """contact_force, other_contact, body_contact from the contacts the last step solved."""
         if self.can_rewind:  # one sphere per foot on the plane, nothing else touches it: the foot sensors
-            sens = self._sens.tolist()
-            self.contact_force = dict(zip(self._foot_keys, [sens[a] for a in self._foot_force_adr],
-                                          strict=True))
+            forces = self._foot_forces(self._sens.tolist())
+            self.contact_force = dict(zip(self._foot_keys, forces, strict=True))
             self.other_contact = self.body_contact = False
             return
         d = self.data
@@ -348,8 +347,11 @@ class MujocoWorld(QuadWorld):
         states = []
         dt, held_q, held_dq = self.cfg.dt_s, self._held_q, self._held_dq
         atan2 = math.atan2
-        for r, (qp, qv) in enumerate(zip(qb[row + 1:row + k + 1].tolist(), vb[row + 1:row + k + 1].tolist(),
-                                          strict=True), start=1):
+        vs = vb[row + 1:row + k + 1].tolist()
+        r = 0
+        for qp in qb[row + 1:row + k + 1].tolist():
+            qv = vs[r]
+            r += 1
             # read's q1, dq1 and roll: the rotation matrix's entries 0 and 3..8 (`_rotation`)
             qw, qx, qy, qz = qp[3:7]
             wx, wy, wz = qv[3:6]
