@@ -113,8 +113,8 @@ PROFILE_PHASES = ("read", "spine", "gait", "log", "physics", "other")
 # A held step's log row: the world packs HELD_STATE; the loop packs HELD_AUX (after the index of the row whose
 # torques and stance the step holds); HELD_KEPT is copied from that row; the power and peak columns are
 # derived after the loop, as for every row.
-HELD_AUX = ("t", "q1_est", "dq1_est", "ddq1_est", "pitch_front", "spine_x", "spine_z", "spine_theta",
-            "gait_phase", "gait_frequency_hz", "spine_spring_energy_j")
+HELD_AUX = ("t", "q1_true", "dq1_true", "roll", "yaw", "q1_est", "dq1_est", "ddq1_est", "pitch_front",
+            "spine_x", "spine_z", "spine_theta", "gait_phase", "gait_frequency_hz", "spine_spring_energy_j")
 HELD_KEPT = ("tau2", "tau3", "tau4", "stance_hind", "stance_front",
              *(c for c in COLUMNS if c.startswith("tau_")))
 _DERIVED = ("leg_power_w", "spine_power_w", "leg_tau_max")
@@ -290,7 +290,7 @@ def run_bound(
                 # this step and the held ones up to the gait's next call, then their catch-up
                 k = min(1 + idle_ticks(), n - i)
                 s0 = s = i
-                for t1, q1, dq1, roll, q_sp1, dq_sp1, body in step_chunk(k, i):
+                for t1, q1, dq1, roll, yaw, q_sp1, dq_sp1, body in step_chunk(k, i):
                     # the state after step s: its fall check, then (inside the chunk) step s + 1's catch-up
                     pf1 = q1 + sum(q_sp1)
                     if not fell:
@@ -312,8 +312,8 @@ def run_bound(
                         break
                     task = spine.task_pose
                     task = task.tolist() if type(task) is ndarray else task
-                    pack_aux(aux, s * aux_bytes, s0, t1, est.q1, est.dq1, est.ddq1, pf1, *task, gait_phase(),
-                             gait_frequency(), spine.energy_j)
+                    pack_aux(aux, s * aux_bytes, s0, t1, q1, dq1, roll, yaw, est.q1, est.dq1, est.ddq1, pf1,
+                             *task, gait_phase(), gait_frequency(), spine.energy_j)
                 if fell and cfg.stop_on_fall:
                     i = s + 1
                     break

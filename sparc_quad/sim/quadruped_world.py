@@ -116,7 +116,7 @@ class LegState:
 
 
 # what `QuadWorld.step_held` packs per step, named as the bound log's columns (sparc_quad.sim.bound_log)
-HELD_STATE = ("x", "y", "z", "q1_true", "dq1_true", "roll", "yaw", "q2", "q3", "q4", "dq2", "dq3", "dq4",
+HELD_STATE = ("x", "y", "z", "q2", "q3", "q4", "dq2", "dq3", "dq4",
               *(f"contact_{leg}" for leg in LEGS), *(f"dq_{j}" for j in LEG_JOINTS))
 PACK_HELD = struct.Struct(f"{len(HELD_STATE)}d").pack_into
 
@@ -279,20 +279,19 @@ class QuadWorld(ABC):
     def record_held(self, row: int) -> None:
         """Keep the present state (read in full) as the state before step `row` (`step_chunk`)."""
         cf = self.contact_force
-        PACK_HELD(self._held, row * 8 * len(HELD_STATE), *self.base_pos, self.q1, self.dq1, self.roll,
-                  self.yaw, *self.q_spine, *self.dq_spine, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0,
-                  cf["FR"] > 0.0, *self.leg_rates())
+        PACK_HELD(self._held, row * 8 * len(HELD_STATE), *self.base_pos, *self.q_spine, *self.dq_spine,
+                  cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0, *self.leg_rates())
 
     def step_chunk(self, k: int, row: int) -> list[tuple]:
         """Advance k steps with the torques last set (`set_torques`), keeping each new state as the state
-        before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, q_spine, dq_spine,
+        before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, yaw, q_spine, dq_spine,
         body_contact). The state attributes are the last state's, read in full. This default is `step`
         k times (without `rewind`: a chunk cannot be taken back, so the bound does not use it)."""
         states = []
         for r in range(1, k + 1):
             self.step()
             self.record_held(row + r)
-            states.append((self.t, self.q1, self.dq1, self.roll, self.q_spine, self.dq_spine,
+            states.append((self.t, self.q1, self.dq1, self.roll, self.yaw, self.q_spine, self.dq_spine,
                            self.body_contact))
         return states
 

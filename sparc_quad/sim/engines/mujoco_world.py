@@ -352,14 +352,14 @@ class MujocoWorld(QuadWorld):
         for qp in qb[row + 1:row + k + 1].tolist():
             qv = vs[r]
             r += 1
-            # read's q1, dq1 and roll: the rotation matrix's entries 0 and 3..8 (`_rotation`)
+            # read's q1, dq1, roll and yaw: the rotation matrix's entries 0 and 3..8 (`_rotation`)
             qw, qx, qy, qz = qp[3:7]
             wx, wy, wz = qv[3:6]
             r0 = 1 - 2 * (qy * qy + qz * qz)
-            dq1 = (2 * (qx * qy + qw * qz) * wx + (1 - 2 * (qx * qx + qz * qz)) * wy
-                   + 2 * (qy * qz - qw * qx) * wz)
+            r3 = 2 * (qx * qy + qw * qz)
+            dq1 = r3 * wx + (1 - 2 * (qx * qx + qz * qz)) * wy + 2 * (qy * qz - qw * qx) * wz
             states.append(((steps0 + r) * dt, atan2(-(2 * (qx * qz - qw * qy)), r0), dq1,
-                           atan2(2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)),
+                           atan2(2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)), atan2(r3, r0),
                            held_q(qp), held_dq(qv), False))
         return states
 
@@ -379,27 +379,19 @@ class MujocoWorld(QuadWorld):
         self.read()
 
     def held_rows(self, rows: np.ndarray) -> np.ndarray:
-        """The HELD_STATE values of the states before steps `rows`, from the raw buffers, with `read`'s
-        arithmetic (numpy's elementwise doubles; the angles by math.atan2, as `read`)."""
+        """The HELD_STATE values of the states before steps `rows`, copied from the raw buffers (the
+        foot flags: the sensors' normal force > 0, as `read`'s)."""
         if not self.can_rewind:
             return super().held_rows(rows)
         qp, qv, sn = self._qb[rows], self._vb[rows], self._sb[rows]
-        qw, qx, qy, qz = qp[:, 3], qp[:, 4], qp[:, 5], qp[:, 6]
-        wx, wy, wz = qv[:, 3], qv[:, 4], qv[:, 5]
-        rot = _rotation(qw, qx, qy, qz)
-        atan2 = np.frompyfunc(math.atan2, 2, 1)
         out = np.zeros((len(rows), len(HELD_STATE)))
         out[:, 0:3] = qp[:, 0:3]
-        out[:, 3] = atan2(-rot[6], rot[0])
-        out[:, 4] = rot[3] * wx + rot[4] * wy + rot[5] * wz
-        out[:, 5] = atan2(rot[7], rot[8])
-        out[:, 6] = atan2(rot[3], rot[0])
-        out[:, 7:10] = qp[:, self._spine_qadr]
-        out[:, 10:13] = qv[:, self._spine_dadr]
-        out[:, 13:17] = sn[:, self._held_force_adr] > 0.0
+        out[:, 3:6] = qp[:, self._spine_qadr]
+        out[:, 6:9] = qv[:, self._spine_dadr]
+        out[:, 9:13] = sn[:, self._held_force_adr] > 0.0
         legs = np.asarray(self._leg_dadr)
         present = legs >= 0
-        out[:, 17:][:, present] = qv[:, legs[present]]
+        out[:, 13:][:, present] = qv[:, legs[present]]
         return out
 
     def close(self) -> None:

@@ -58,12 +58,12 @@ def test_held_steps_bit_identical_through_a_fall():
 
 def _as_read(state: tuple) -> tuple:
     """A chunk's state with the spine's q and dq as lists, as `read` keeps them."""
-    return (*state[:4], list(state[4]), list(state[5]), state[6])
+    return (*state[:5], list(state[5]), list(state[6]), state[7])
 
 
 def _held_values(w) -> list[float]:
     cf = w.contact_force
-    return [*w.base_pos, w.q1, w.dq1, w.roll, w.yaw, *w.q_spine, *w.dq_spine,
+    return [*w.base_pos, *w.q_spine, *w.dq_spine,
             *(float(cf[leg] > 0.0) for leg in ("HL", "HR", "FL", "FR")), *w.leg_rates()]
 
 
@@ -81,7 +81,7 @@ def test_mujoco_chunk_keeps_what_read_gives():
     want = []
     for st in states:
         a.step()
-        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.q_spine, a.dq_spine, a.body_contact)
+        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact)
         want.append(_held_values(a))
     got = b.held_rows(np.arange(1, 201))
     assert got.tolist() == want
@@ -109,7 +109,7 @@ def test_default_chunk_is_step_by_step():
     want = []
     for st in states:
         a.step()
-        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.q_spine, a.dq_spine, a.body_contact)
+        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact)
         want.append(_held_values(a))
     assert b.held_rows(np.arange(1, 21)).tolist() == want
 
@@ -133,11 +133,12 @@ def test_fill_held_rows_copies_the_held_row_and_packs_the_rest():
             return np.array([np.arange(200, 200 + len(HELD_STATE))] * len(rows), dtype=float)
 
     series = np.arange(3 * len(COLUMNS), dtype=float).reshape(3, len(COLUMNS))
-    aux = np.full((3, 12), -1.0)
-    aux[2] = [0.0, *range(100, 111)]
+    aux = np.full((3, 16), -1.0)
+    aux[2] = [0.0, *range(100, 115)]
     before = series.copy()
     fill_held_rows(series, _World(), aux)
     assert np.array_equal(series[:2], before[:2])
     assert series[2, COLUMNS.index("tau3")] == before[0, COLUMNS.index("tau3")]
     assert series[2, COLUMNS.index("t")] == 100.0
-    assert series[2, COLUMNS.index("yaw")] == 200 + HELD_STATE.index("yaw")
+    assert series[2, COLUMNS.index("yaw")] == 104.0
+    assert series[2, COLUMNS.index("q3")] == 200 + HELD_STATE.index("q3")
