@@ -67,28 +67,37 @@ def _held_values(w) -> list[float]:
             *(float(cf[leg] > 0.0) for leg in ("HL", "HR", "FL", "FR")), *w.leg_rates()]
 
 
+_TAU = ([0.3, -0.2, 0.1], {k: (0.0, 1.5, -2.0) for k in ("HL", "HR", "FL", "FR")})
+
+
+def _chunk_against_steps(a, b, k: int) -> np.ndarray:
+    """World b runs a chunk of k steps, world a (the same world) k plain steps: state by state the same;
+    b's kept rows are returned."""
+    a.set_torques(*_TAU)
+    b.set_torques(*_TAU)
+    b.start_held(k + 1)
+    want = []
+    for st in b.step_chunk(k, 0):
+        a.step()
+        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact)
+        want.append(_held_values(a))
+    got = b.held_rows(np.arange(1, k + 1))
+    assert got.tolist() == want
+    return got
+
+
 def test_mujoco_chunk_keeps_what_read_gives():
     """MuJoCo's chunk (steps back to back, raw states converted after) gives, state by state, what `step` +
     `read` give; `rewind` takes it back to a state exactly."""
     cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0)
     a, b, c = make_world(cfg.world), make_world(cfg.world), make_world(cfg.world)
     assert b.can_rewind
-    tau = ([0.3, -0.2, 0.1], {k: (0.0, 1.5, -2.0) for k in ("HL", "HR", "FL", "FR")})
-    for w in (a, b, c):
-        w.set_torques(*tau)
-    b.start_held(201)
-    states = b.step_chunk(200, 0)
-    want = []
-    for st in states:
-        a.step()
-        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact)
-        want.append(_held_values(a))
-    got = b.held_rows(np.arange(1, 201))
-    assert got.tolist() == want
+    got = _chunk_against_steps(a, b, 200)
     assert any(got[:, HELD_STATE.index("contact_HL")] > 0.5)  # the feet touched: the flags were exercised
     assert any(got[:, HELD_STATE.index("contact_HL")] < 0.5)
     assert (b.jq, b.jdq, b.base_rot, b.base_omega, b.contact_force) == (
         a.jq, a.jdq, a.base_rot, a.base_omega, a.contact_force)
+    c.set_torques(*_TAU)
     for _ in range(57):
         c.step()
     b.rewind(57)
@@ -101,17 +110,7 @@ def test_default_chunk_is_step_by_step():
     cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0, engine="pybullet")
     a, b = make_world(cfg.world), make_world(cfg.world)
     assert not b.can_rewind
-    tau = ([0.3, -0.2, 0.1], {k: (0.0, 1.5, -2.0) for k in ("HL", "HR", "FL", "FR")})
-    a.set_torques(*tau)
-    b.set_torques(*tau)
-    b.start_held(21)
-    states = b.step_chunk(20, 0)
-    want = []
-    for st in states:
-        a.step()
-        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact)
-        want.append(_held_values(a))
-    assert b.held_rows(np.arange(1, 21)).tolist() == want
+    _chunk_against_steps(a, b, 20)
 
 
 def test_chunk_rewinds_when_the_spine_torque_changes():
