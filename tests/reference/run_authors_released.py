@@ -9,6 +9,16 @@ Sources (read from local snapshots, extracted to a temporary folder, never copie
   github.com/YueWang996/bard-pytorch-dynamics, commit ccfde3d (bard 0.2: the last commit with the
   `bard.core.dynamics/jacobian/kinematics` modules their code imports, 2025-10-14; the next, v0.3 of
   2026-03-07, removed them; sparc d9639f5 is of 2026-01-04).
+sha256 of the files run (`git show <commit>:<path>`):
+main_robot.py 70566aff5bd992462bb4758dd0e1798683b1caf85c85113d8e7ac0eea36f3f41,
+dog_controller_no_cpg.py 8c028d2f23b57bbd2b173e8c95e3bd36e4961203bfcee54fb513ab6fc04d243b,
+spine_impedance_controller.py 352d411da5a2c57449de8469cfb91dc48a22a9876435b489a8bf39290ff9b2ef,
+mujoco_interface.py 14d996f2a1b45dbbfe7b006410cc3672c3afefc8ad652496b3e2f27bdb189a22,
+asset/spined_dog.xml 75ac2f0460f40a8d8b024e8b73658a90c49057239d3beb5e87fbd9c11cc887d3,
+asset/spined_dog_spine_dyn.urdf 20fee0c50b84b4ccca65662698c5313ebaa88005407bbdafa6e5fdfb2499629c;
+bard bard/core/jacobian.py 7c5a6dc347b8e9c9dd574e05acd6024757ab037fd461e89c3faa90307eaba460,
+kinematics.py fe2dfc2b2bdb6e750b1957e1a39fad786d35c5826e1cb1b96d374e3b821363f9,
+dynamics.py 8594d729466396f6b7ce59db23afd19a6a6b2fd5561e1fde01c4f62f18353408.
 Copyright (c) 2026 YueWang996, MIT licence: this script drives their code and changes a few of their
 constants in the temporary copy (listed in PATCHES); it carries no code of theirs.
 
@@ -26,6 +36,11 @@ Usage (orchestrator, any Python >= 3.11 with git on PATH):
   python tests/reference/run_authors_released.py --sparc /work/.mirror/YueWang996+sparc/repo \
       --bard /work/.mirror/YueWang996+bard-pytorch-dynamics/repo --venv /tmp/authors-venv \
       --case 0.08:800 --case 0.12:800 --duration 20 --out /tmp/authors-released.json
+`--compare` (orchestrator in the project's venv, pinocchio) also sets their run against the project's
+pinocchio reference, `tests/reference/authors_bound.py`: the reference's spine law on the spine states
+their run recorded (Jacobian and J̇q̇ taken LOCAL and rotated once, as the reference; and rotated twice:
+LOCAL_WORLD_ALIGNED, then R_rel), and the reference's whole run from their start pose (see
+`RELEASED_START_OFFSETS`) against their trajectory.
 The venv needs torch, mujoco, numpy, scipy, lxml, pyyaml (bard's own dependencies); bard itself is put on
 PYTHONPATH from the extracted commit (its pyproject installs only the top package, without `bard.core`).
 """
@@ -272,6 +287,98 @@ def run_case(sparc: Path, bard_src: Path, venv: Path, step_length_m: float, k_x:
     return res
 
 
+# ---------------------------------------------------------------------- against the pinocchio reference
+
+# Their start: main_robot.py poses the legs from the generator BEFORE switching it to the bound, while the
+# DogController's generator is still in its default trot, so the legs start at the trot's phase offsets
+# (HL, HR, FL, FR) = (0, pi, pi, 0), not the bound's (0, 0, pi, pi). The recorded qpos0 shows it.
+RELEASED_START_OFFSETS = (0.0, math.pi, math.pi, 0.0)
+
+
+def compare_spine_law(probes: list[dict]) -> dict:
+    """Largest |tau_theirs - tau_reference| (N m) over the recorded calls, for the reference law as it is
+    (LOCAL, rotated once by R_rel) and with its Jacobian and spatial acceleration LOCAL_WORLD_ALIGNED
+    (then rotated by R_rel: twice)."""
+    import numpy as np
+    import pinocchio as pin
+
+    from tests.reference.authors_bound import AuthorsSpineLaw, load_model
+
+    model = load_model()
+    once, twice = AuthorsSpineLaw(model), AuthorsSpineLaw(model)
+    twice.pin = types.SimpleNamespace(**{k: getattr(pin, k) for k in dir(pin) if not k.startswith("__")})
+    twice.pin.ReferenceFrame = types.SimpleNamespace(LOCAL=pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+    d_once, d_twice, mag = [], [], []
+    for pr in probes:
+        q, v, tau = np.array(pr["q_full"]), np.array(pr["v_full"]), np.array(pr["tau_spine"])
+        for law in (once, twice):
+            law.kp, law.kd, law.x_des = np.array(pr["kp"]), np.array(pr["kd"]), np.array(pr["x_des"])
+        d_once.append(float(np.abs(tau - once.torque(q, v)).max()))
+        d_twice.append(float(np.abs(tau - twice.torque(q, v)).max()))
+        mag.append(float(np.abs(tau).max()))
+    return {"calls": len(probes), "t_last_s": probes[-1]["t"] if probes else None,
+            "tau_max_nm": max(mag, default=None), "once_max_diff_nm": max(d_once, default=None),
+            "once_median_diff_nm": float(np.median(d_once)) if d_once else None,
+            "twice_max_diff_nm": max(d_twice, default=None),
+            "twice_median_diff_nm": float(np.median(d_twice)) if d_twice else None}
+
+
+def reference_run(step_length_m: float, k_x: float, duration_s: float, released_start: bool):
+    """The pinocchio reference's run; released_start: legs posed with their released start offsets."""
+    import tests.reference.authors_bound as ab
+
+    cfg = ab.AuthorsBoundConfig(step_length_m=step_length_m, k_x=k_x, duration_s=duration_s)
+    if not released_start:
+        return ab.run_authors_bound(cfg)
+    plain = ab.AuthorsGait.joint_targets
+
+    def first_at_released_start(gait, t_s: float):
+        ab.AuthorsGait.joint_targets = plain  # only the start pose (the first call) is posed differently
+        bound = ab.PHASE_OFFSETS
+        ab.PHASE_OFFSETS = RELEASED_START_OFFSETS
+        try:
+            return plain(gait, t_s)
+        finally:
+            ab.PHASE_OFFSETS = bound
+
+    ab.AuthorsGait.joint_targets = first_at_released_start
+    try:
+        return ab.run_authors_bound(cfg)
+    finally:
+        ab.AuthorsGait.joint_targets = plain
+
+
+def compare_trajectory(series: dict, ref) -> dict:
+    """Largest |theirs - reference| of hind-body x and pitch up to 2, 4 and 20 s (their record is the
+    state after each step, the reference's log the state before it)."""
+    import numpy as np
+
+    t = np.array(series["t"])
+    n = min(len(t), len(ref.t) - 1)
+    ex = np.abs(np.array(series["x"])[:n] - ref.x[1:n + 1])
+    ep = np.abs(np.array(series["pitch"])[:n] - ref.pitch[1:n + 1])
+    out = {}
+    for t1 in (2.0, 4.0, 20.0):
+        w = t[:n] <= t1
+        if w.any():
+            out[f"x_max_diff_m_to_{t1:g}s"] = float(ex[w].max())
+            out[f"pitch_max_diff_rad_to_{t1:g}s"] = float(ep[w].max())
+    return out
+
+
+def compare(r: dict) -> dict:
+    root = str(Path(__file__).resolve().parents[2])  # the project checkout, for tests.reference
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    out: dict = {"spine_law": compare_spine_law(r["probes"])}
+    for label, released in (("reference_bound_start", False), ("reference_released_start", True)):
+        ref = reference_run(r["step_length_m"], r["k_x"], r["duration_s"], released)
+        speeds = {"speed_4s_end_m_s": ref.speed_m_s(4.0), "speed_whole_m_s": ref.speed_m_s(0.0)}
+        speeds = {k: None if math.isnan(v) else v for k, v in speeds.items()}
+        out[label] = {"fall_s": ref.fall_time_s, **speeds, **compare_trajectory(r["series"], ref)}
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sparc", type=Path, help="git dir of the sparc snapshot")
@@ -281,6 +388,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=20.0, help="simulated seconds")
     ap.add_argument("--out", type=Path, required=True, help="JSON written here")
     ap.add_argument("--series", action="store_true", help="keep per-step series and probes in the JSON")
+    ap.add_argument("--compare", action="store_true",
+                    help="also run the pinocchio reference (needs the project's venv) and compare")
     ap.add_argument("--driver", type=Path, help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.driver:
@@ -303,11 +412,14 @@ def main(argv: list[str] | None = None) -> int:
         extract(a.bard, BARD_COMMIT, work / "bard")
         for step_length_m, k_x in cases:
             r = run_case(a.sparc, work / "bard", a.venv, step_length_m, k_x, a.duration, work)
+            if a.compare:
+                r["compare"] = compare(r)
             if not a.series:
                 r.pop("series")
                 r.pop("probes")
             results.append(r)
-            print(json.dumps({k: v for k, v in r.items() if k not in ("series", "probes", "patches")}))
+            shown = {k: v for k, v in r.items() if k not in ("series", "probes", "patches", "initial")}
+            print(json.dumps(shown))
     a.out.write_text(json.dumps({"sparc_commit": SPARC_COMMIT, "bard_commit": BARD_COMMIT,
                                  "results": results}, indent=1))
     return 0
