@@ -155,7 +155,8 @@ def run_bound(
     (time.perf_counter) per phase of each step: read (world.estimate), spine, gait, log (torques sent,
     leg states read, log row), physics (world.step: stepSimulation + state refresh), other (fall
     check); when None the loop takes no
-    timestamps. `stop()`, when given, is asked before each step; True raises KeyboardInterrupt there (the
+    timestamps. `stop()`, when given, is asked before each step computed in full (held steps run between
+    those, at most the gait's control period); True raises KeyboardInterrupt there (the
     CLI's Ctrl-C: the exception is raised in this loop, never inside an extension's call). `held_steps`
     False runs every step through the full path (the reference the held steps are tested against)."""
     frames: list = []
@@ -221,8 +222,11 @@ def run_bound(
     # (`fill_held_rows`). Same numbers as the full path at every step (tests/sparc_quad/sim/
     # test_held_steps.py), which runs whenever profiling, frames, real time or latency need it, and on
     # worlds that cannot rewind (pybullet).
+    # (a spine that holds its torque between its own clock's calls: the direct spine with a clocked drive;
+    # a node spine's torque moves every step and would rewind every chunk)
     holds = (held_steps and world.can_rewind and isinstance(gait, SineBoundController)
-             and gait.clock is not None and not latency and not prof and not frame_every and not realtime)
+             and gait.clock is not None and isinstance(spine, DirectSpine) and spine.drive.clocked
+             and not latency and not prof and not frame_every and not realtime)
     idle_ticks = gait.clock.idle_ticks if holds else None
     if holds:
         world.start_held(n + 1)  # row i: the state before step i

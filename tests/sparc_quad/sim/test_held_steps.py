@@ -141,3 +141,13 @@ def test_fill_held_rows_copies_the_held_row_and_packs_the_rest():
     assert series[2, COLUMNS.index("t")] == 100.0
     assert series[2, COLUMNS.index("yaw")] == 104.0
     assert series[2, COLUMNS.index("q3")] == 200 + HELD_STATE.index("q3")
+
+
+def test_a_spine_computed_every_step_runs_every_step_in_full():
+    """A spine drive without a control clock (its torque may move every step) gets no chunks."""
+    from dataclasses import replace
+
+    cfg = replace(authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=0.5),
+                  spine_rate_hz=None, spine_timing="hold")
+    held, full = _both(cfg)
+    _assert_same(held, full, chunks=False)
