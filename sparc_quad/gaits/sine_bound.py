@@ -17,7 +17,9 @@ PD (8 N*m/rad, 0.1 N*m*s/rad, zero rate target). Speed is emergent.
   6 steps at 1 ms, ~182 Hz), torques held between calls, zero until the first call at 5 ms;
 - the start is on the trajectory at full amplitude at t = 0 (`start_leg_angles`, which a world applies
   with its start pose: on the spined dog the hind body at 0.24 m and spine q (-0.6, 1.2, -0.6), feet
-  ~2 cm in the floor);
+  ~2 cm in the floor), the legs posed at the trot's phase offsets (`start_leg_offsets_rad`): their
+  `main_robot.py` poses the legs from the generator before it switches it from its default trot to the
+  bound, so the right legs start at the other end of their stride;
 - frequency adaptation (`adapt_frequency`): at each call the spine x is low-passed at 6 Hz (filter step
   5 ms); a local maximum above 0.02 m is a peak, and the gait phase at the peak's time is recorded while
   2 s < t < 4 s; at the first peak after 4 s their circular mean becomes the target; later, a lag above
@@ -75,6 +77,11 @@ class SineBoundParams:
     adapt_min_peak_m: float = 0.02  # authors: peaks of the filtered spine x below this are ignored
     direction: float = 1.0  # literal: +1 the authors' x read as the robot's, -1 reversed
     start_phase_rad: float = 0.0  # gait clock at the start of stepping (study seeds vary it)
+    # authors: leg phase offsets (rad; HL, HR, FL, FR) of the start pose only. Their main_robot.py calls
+    # get_joint_angles(0.0) to pose the legs while the DogController's generator is still its default
+    # trot, and only then set_gait_type('bound'): the legs start at the trot's (0, pi, pi, 0), then step
+    # with the bound's (0, 0, pi, pi). Copyright (c) 2026 YueWang996 (MIT).
+    start_leg_offsets_rad: tuple[float, float, float, float] = (0.0, math.pi, math.pi, 0.0)
     start_spine_q_rad: tuple[float, float, float] | None = None  # authors: spine at t = 0 (None: the arch)
     start_base_height_m: float | None = None  # authors: hind-body frame height at t = 0 (None: the stand's)
     start_s: float = 0.3  # literal only: stand, then ramp
@@ -188,10 +195,14 @@ class SineBoundController(Gait):
         return x, z
 
     def start_leg_angles(self) -> dict[str, tuple[float, float]]:
-        """(HFE, KFE) of each leg at the start: on the trajectory at t = 0 (authors), standing (literal)."""
-        if not self.p.authors:
+        """(HFE, KFE) of each leg at the start: on the trajectory at t = 0 at the start offsets (authors:
+        the trot's, as their code poses it), standing (literal)."""
+        p = self.p
+        if not p.authors:
             return dict(self._stand)
-        return {k: self.w.leg_ik(k, *self.foot_target(k, self._phase_at(0.0))) for k in LEGS}
+        g = self._phase_at(0.0)
+        return {k: self.w.leg_ik(k, *self._foot_xz(g + off, self.stride_scale[k[1]], 1.0))
+                for k, off in zip(LEGS, p.start_leg_offsets_rad, strict=True)}
 
     def start_pose(self):
         """(spine q or None, leg angles, base height or None) for `world.set_start`; None: the stand."""

@@ -22,7 +22,9 @@ What it reproduces, as their code runs it:
 - the MuJoCo loop: control when `data.time - last >= 1/200` (float clock: every 5 or 6 steps, ~182 Hz),
   torques held between calls, zero torque until the first call (t = 5 ms);
 - the start: hind body at 0.24 m, spine q (-0.6, 1.2, -0.6), legs on the trajectory at t = 0 (feet ~2 cm in
-  the floor), nothing else set; base pose and velocity read from `xpos`/`xquat`/`cvel` (one step behind
+  the floor) at the trot's phase offsets (their main_robot.py poses the legs before it switches the
+  generator from its default trot to the bound: `START_PHASE_OFFSETS`), nothing else set; base pose and
+  velocity read from `xpos`/`xquat`/`cvel` (one step behind
   `qpos`, as MuJoCo leaves them after `mj_step`);
 - gait: phase w t + offset (kept continuous when f changes), offsets (0, 0, pi, pi) for HL, HR, FL, FR; a
   foot at (L s cos phi, H max(sin phi, 0) - 0.23) in a leg frame whose x is the robot's -x; two-link IK
@@ -64,6 +66,10 @@ SPINE_BODIES = ("hind_body", "hind_spine", "front_spine", "front_body")
 # knees the other
 IK_REFERENCE = ((-0.785398, 1.5708), (-0.785398, 1.5708), (0.785398, -1.5708), (0.785398, -1.5708))
 PHASE_OFFSETS = (0.0, 0.0, math.pi, math.pi)
+# their start: main_robot.py poses the legs with get_joint_angles(0.0) while the DogController's generator
+# is still its default trot, and only then calls set_gait_type('bound'): the legs start at the trot's
+# offsets (HL, HR, FL, FR) = (0, pi, pi, 0) (dog_controller_no_cpg.py, set_gait_type)
+START_PHASE_OFFSETS = (0.0, math.pi, math.pi, 0.0)
 LINK_M = 0.151
 HIP_DEPTH_M = 0.23
 CONTROL_PERIOD_S = 1.0 / 200.0
@@ -79,6 +85,12 @@ def snapshot_mjcf_text() -> str | None:
     if r.returncode != 0:
         return None
     root = ET.fromstring(r.stdout)
+    strip_meshes(root)
+    return ET.tostring(root, encoding="unicode")
+
+
+def strip_meshes(root: ET.Element) -> None:
+    """Remove the mesh assets and mesh geoms of an MJCF tree in place (all visual in their model)."""
     for asset in root.iter("asset"):
         for mesh in list(asset.findall("mesh")):
             asset.remove(mesh)
@@ -86,7 +98,6 @@ def snapshot_mjcf_text() -> str | None:
         for geom in list(parent.findall("geom")):
             if geom.get("type") == "mesh":
                 parent.remove(geom)
-    return ET.tostring(root, encoding="unicode")
 
 
 @dataclass(frozen=True)
@@ -98,6 +109,7 @@ class AuthorsBoundConfig:
     duration_s: float = 20.0
     switch_s: float = 4.0
     stop_on_fall: bool = True
+    start_offsets: tuple[float, float, float, float] = START_PHASE_OFFSETS  # leg phases of the start pose
 
 
 @dataclass
@@ -226,11 +238,11 @@ class AuthorsGait:
         cmd = max(-0.4, min(0.4, cmd))
         self.scale_right, self.scale_left = 1.0 + cmd, 1.0 - cmd
 
-    def joint_targets(self, t_s: float) -> np.ndarray:
+    def joint_targets(self, t_s: float, offsets: tuple[float, ...] = PHASE_OFFSETS) -> np.ndarray:
         g = self.w * t_s + self.offset
         out = np.zeros(8)
         for i in range(4):
-            ph = (g + PHASE_OFFSETS[i]) % (2 * math.pi)
+            ph = (g + offsets[i]) % (2 * math.pi)
             s = math.sin(ph)
             scale = self.scale_left if i % 2 == 0 else self.scale_right
             xl = self.L * scale * math.cos(ph)  # leg frame: x is the robot's -x
@@ -307,7 +319,7 @@ def run_authors_bound(cfg: AuthorsBoundConfig, model=None) -> AuthorsBoundResult
     gait = AuthorsGait(cfg)
     for a, q in zip(sp_q, (-0.6, 1.2, -0.6), strict=True):
         d.qpos[a] = q
-    for a, q in zip(leg_q, gait.joint_targets(0.0), strict=True):
+    for a, q in zip(leg_q, gait.joint_targets(0.0, cfg.start_offsets), strict=True):
         d.qpos[a] = q
 
     # control-loop state

@@ -40,7 +40,7 @@ Usage (orchestrator, any Python >= 3.11 with git on PATH):
 pinocchio reference, `tests/reference/authors_bound.py`: the reference's spine law on the spine states
 their run recorded (Jacobian and J̇q̇ taken LOCAL and rotated once, as the reference; and rotated twice:
 LOCAL_WORLD_ALIGNED, then R_rel), and the reference's whole run from their start pose (see
-`RELEASED_START_OFFSETS`) against their trajectory.
+`authors_bound.START_PHASE_OFFSETS`, its default since 2026-12-02) against their trajectory.
 The venv needs torch, mujoco, numpy, scipy, lxml, pyyaml (bard's own dependencies); bard itself is put on
 PYTHONPATH from the extracted commit (its pyproject installs only the top package, without `bard.core`).
 """
@@ -126,13 +126,10 @@ def strip_missing_meshes(mjcf: Path) -> list[str]:
                 missing.append(mesh.get("file", ""))
     if not missing:
         return []
-    for asset in root.iter("asset"):
-        for mesh in list(asset.findall("mesh")):
-            asset.remove(mesh)
-    for parent in root.iter():
-        for geom in list(parent.findall("geom")):
-            if geom.get("type") == "mesh":
-                parent.remove(geom)
+    _project_on_path()
+    from tests.reference.authors_bound import strip_meshes
+
+    strip_meshes(root)
     ET.ElementTree(root).write(mjcf)
     return sorted(set(missing))
 
@@ -289,12 +286,6 @@ def run_case(sparc: Path, bard_src: Path, venv: Path, step_length_m: float, k_x:
 
 # ---------------------------------------------------------------------- against the pinocchio reference
 
-# Their start: main_robot.py poses the legs from the generator BEFORE switching it to the bound, while the
-# DogController's generator is still in its default trot, so the legs start at the trot's phase offsets
-# (HL, HR, FL, FR) = (0, pi, pi, 0), not the bound's (0, 0, pi, pi). The recorded qpos0 shows it.
-RELEASED_START_OFFSETS = (0.0, math.pi, math.pi, 0.0)
-
-
 def compare_spine_law(probes: list[dict]) -> dict:
     """Largest |tau_theirs - tau_reference| (N m) over the recorded calls, for the reference law as it is
     (LOCAL, rotated once by R_rel) and with its Jacobian and spatial acceleration LOCAL_WORLD_ALIGNED
@@ -324,28 +315,13 @@ def compare_spine_law(probes: list[dict]) -> dict:
 
 
 def reference_run(step_length_m: float, k_x: float, duration_s: float, released_start: bool):
-    """The pinocchio reference's run; released_start: legs posed with their released start offsets."""
+    """The pinocchio reference's run; released_start: legs posed as their code poses them (the reference's
+    default), else at the bound's offsets (the reference's start before 2026-12-02)."""
     import tests.reference.authors_bound as ab
 
-    cfg = ab.AuthorsBoundConfig(step_length_m=step_length_m, k_x=k_x, duration_s=duration_s)
-    if not released_start:
-        return ab.run_authors_bound(cfg)
-    plain = ab.AuthorsGait.joint_targets
-
-    def first_at_released_start(gait, t_s: float):
-        ab.AuthorsGait.joint_targets = plain  # only the start pose (the first call) is posed differently
-        bound = ab.PHASE_OFFSETS
-        ab.PHASE_OFFSETS = RELEASED_START_OFFSETS
-        try:
-            return plain(gait, t_s)
-        finally:
-            ab.PHASE_OFFSETS = bound
-
-    ab.AuthorsGait.joint_targets = first_at_released_start
-    try:
-        return ab.run_authors_bound(cfg)
-    finally:
-        ab.AuthorsGait.joint_targets = plain
+    offsets = ab.START_PHASE_OFFSETS if released_start else ab.PHASE_OFFSETS
+    return ab.run_authors_bound(ab.AuthorsBoundConfig(step_length_m=step_length_m, k_x=k_x,
+                                                      duration_s=duration_s, start_offsets=offsets))
 
 
 def compare_trajectory(series: dict, ref) -> dict:
@@ -366,10 +342,14 @@ def compare_trajectory(series: dict, ref) -> dict:
     return out
 
 
-def compare(r: dict) -> dict:
+def _project_on_path() -> None:
     root = str(Path(__file__).resolve().parents[2])  # the project checkout, for tests.reference
     if root not in sys.path:
         sys.path.insert(0, root)
+
+
+def compare(r: dict) -> dict:
+    _project_on_path()
     out: dict = {"spine_law": compare_spine_law(r["probes"])}
     for label, released in (("reference_bound_start", False), ("reference_released_start", True)):
         ref = reference_run(r["step_length_m"], r["k_x"], r["duration_s"], released)
