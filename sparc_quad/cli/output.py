@@ -16,9 +16,9 @@ from __future__ import annotations
 import contextlib
 import datetime
 import os
+import secrets
 import shutil
 import signal
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -27,9 +27,15 @@ from sparc_quad.cli.errors import BadInput
 _HELD = {signal.SIGINT, signal.SIGTERM}
 
 
+def _current_mask() -> set[signal.Signals]:
+    """This thread's signal mask, unchanged (read first, so a restore never depends on a block's result)."""
+    return signal.pthread_sigmask(signal.SIG_BLOCK, ())
+
+
 def _commit(tmp: Path, out: Path) -> None:
-    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    old_mask = _current_mask()
     try:
+        signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
         out.mkdir(parents=True, exist_ok=True)
         for src in sorted(tmp.rglob("*")):  # parents sort before their contents
             dst = out / src.relative_to(tmp)
@@ -41,36 +47,58 @@ def _commit(tmp: Path, out: Path) -> None:
         signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 
 
+def _make_tmp(path: Path) -> None:
+    """Create the temporary folder (its own step, so a test can interrupt right after it)."""
+    os.mkdir(path, 0o700)
+
+
+def _new_tmp(out: Path) -> Path:
+    """A fresh temporary sibling of `out`, named before it is made: whatever interrupts its creation, the
+    clean-up knows its name."""
+    for _ in range(100):
+        tmp = out.parent / f".{out.name}.tmp-{secrets.token_hex(4)}"
+        if not tmp.exists():
+            return tmp
+    raise FileExistsError(f"no free temporary name beside {out}")
+
+
 @contextlib.contextmanager
 def atomic_dir(out: Path) -> Iterator[Path]:
     """A temporary folder beside `out` to write the whole result into; its files move into `out` on
-    success, and it is removed either way."""
+    success, and it is removed either way.
+
+    SIGINT/SIGTERM are held in this thread while the folder is made and while it is removed, and the
+    folder is named before it exists: an interrupt raised anywhere (also one a signal delivered to another
+    thread raises here, which no mask holds back) leaves neither the folder nor a blocked mask behind."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise BadInput(f"--out {out} exists and is not a folder")
-    # SIGINT/SIGTERM held from before the folder exists until its removal is guaranteed: an interrupt
-    # landing inside mkdtemp (after its mkdir, before it returns) would otherwise leave the folder behind
-    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    old_mask = _current_mask()
+    tmp: Path | None = None
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    except OSError as exc:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
-        raise BadInput(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
-    try:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)  # a pending interrupt is raised here, inside
+        signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            tmp = _new_tmp(out)
+            _make_tmp(tmp)
+        except OSError as exc:
+            raise BadInput(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)  # a held interrupt is raised here, inside
         yield tmp
         _commit(tmp, out)
     except Exception as exc:
-        if not isinstance(exc, BadInput):
+        if tmp is not None and tmp.exists() and not isinstance(exc, BadInput):
             exc.partial_outputs = _keep(tmp, out)  # type: ignore[attr-defined]
         raise
     finally:
-        signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)  # a second Ctrl-C must not cut the clean-up short
         try:
-            shutil.rmtree(tmp, ignore_errors=True)
+            signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)  # a second Ctrl-C must not cut the clean-up short
         finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+            try:
+                if tmp is not None:
+                    shutil.rmtree(tmp, ignore_errors=True)
+            finally:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 
 
 def _keep(tmp: Path, out: Path) -> Path | None:

@@ -118,26 +118,35 @@ def test_atomic_dir_is_whole_or_untouched(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
 
 
-def test_an_interrupt_inside_the_folder_creation_still_removes_the_folder(tmp_path, monkeypatch):
-    """The signal lands after mkdtemp's mkdir and before it returns (what a Ctrl-C timed by the folder's
-    appearance can hit): it is held until the folder is in the clean-up's hands."""
+def _interrupting_mkdir(how: str):
+    """A stand-in for the folder's creation that is interrupted right after its mkdir: by a SIGINT to
+    this process (held by the mask until the clean-up owns the folder), or by a KeyboardInterrupt raised
+    in place (what a signal delivered to another thread of the process raises here, mask or not)."""
     import os
-    import tempfile
 
-    real_mkdtemp = tempfile.mkdtemp
+    def make(path):
+        os.mkdir(path, 0o700)
+        if how == "signal":
+            os.kill(os.getpid(), signal.SIGINT)
+        else:
+            raise KeyboardInterrupt
 
-    def mkdtemp_then_sigint(*args, **kwargs):
-        path = real_mkdtemp(*args, **kwargs)
-        os.kill(os.getpid(), signal.SIGINT)
-        return path
+    return make
 
-    monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp_then_sigint)
+
+@pytest.mark.parametrize("how", ["signal", "raised"])
+def test_an_interrupt_inside_the_folder_creation_leaves_no_folder_and_no_blocked_signal(tmp_path, monkeypatch,
+                                                                                         how):
+    from sparc_quad.cli import output
+
+    monkeypatch.setattr(output, "_make_tmp", _interrupting_mkdir(how))
     old = signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's Ctrl-C, whatever runs us
-    out = tmp_path / "out"
     try:
         with pytest.raises(KeyboardInterrupt):
-            with atomic_dir(out):
-                raise AssertionError("the held interrupt must be raised before the body runs")
+            with atomic_dir(tmp_path / "out"):
+                raise AssertionError("the interrupt must be raised before the body runs")
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, ())
     finally:
         signal.signal(signal.SIGINT, old)
     assert not list(tmp_path.glob(".out.*")), "temporary folder left behind"
+    assert signal.SIGINT not in mask and signal.SIGTERM not in mask, f"signals left blocked: {mask}"
