@@ -7,7 +7,10 @@ without a spine-driven adaptation the no-op `observe_spine`.
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    from sparc_quad.sim.control_clock import ControlClock
 
 
 class Gait(Protocol):
@@ -15,10 +18,19 @@ class Gait(Protocol):
 
     stance_flags: dict[str, bool]  # "hind"/"front" -> commanded stance this step (logged)
     backend: str = "python"  # the per-step code: "python" | "numba"
+    clock: ControlClock | None = None  # a gait computed only at its clock's calls (torques held between)
+
+    def phase_fraction(self) -> float:
+        """Where in its stride cycle the gait is, in [0, 1) (logged as `gait_phase`)."""
+        raise NotImplementedError
+
+    def frequency(self) -> float:
+        """Stride frequency now, Hz (logged as `gait_frequency_hz`)."""
+        raise NotImplementedError
 
     def step(self, t: float) -> dict[str, tuple[float, float, float]]:
         """Leg torques (N*m) for time `t` (s): {leg: (tau_haa, tau_hfe, tau_kfe)}, once per physics step."""
-        ...
+        raise NotImplementedError
 
     def start_pose(self) -> tuple | None:
         """(spine q or None, leg angles, base height or None) for `world.set_start`; None: the stand."""

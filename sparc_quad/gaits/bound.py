@@ -139,6 +139,12 @@ class BoundController(Gait):
             dphi += dq
         return x, z, phi, dphi
 
+    def phase_fraction(self) -> float:
+        return self.phase
+
+    def frequency(self) -> float:
+        return self.p.frequency_hz
+
     def _stance_window(self, pair: str, phase: float) -> float | None:
         """Fraction of the stance elapsed, or None in flight."""
         start = 0.0 if pair == "hind" else self.p.phase_offset

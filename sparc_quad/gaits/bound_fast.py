@@ -31,6 +31,12 @@ class CompiledBoundController(Gait):
         self.stance_flags = dict(ref.stance_flags)
         self.phase, self.duty, self.pitch = ref.phase, ref.duty, 0.0
 
+    def phase_fraction(self) -> float:
+        return self.phase
+
+    def frequency(self) -> float:
+        return self.p.frequency_hz
+
     def step(self, t: float) -> dict[str, tuple[float, float, float]]:
         w = self.w
         om = w.base_omega

@@ -181,6 +181,12 @@ class SineBoundController(Gait):
             return self.phase % TWO_PI
         return self._phase_at(self.clock.now_s) % TWO_PI
 
+    def phase_fraction(self) -> float:
+        return self.gait_phase / TWO_PI
+
+    def frequency(self) -> float:
+        return self.frequency_hz
+
     # ---- targets -------------------------------------------------------------------------------------
     def foot_target(self, leg: str, phase: float, amp: float = 1.0) -> tuple[float, float]:
         """Foot (x forward, z up) relative to the hip in the body frame, m."""

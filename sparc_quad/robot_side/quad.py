@@ -36,6 +36,7 @@ class NodeSpine:
     driver = "node"
     actuated = True  # motor-rendered
     backend = None  # the node's own choice
+    clocked = False  # the node's torque can change every tick (soft start, limits, watchdogs)
     energy_j = 0.0
 
     def __init__(self, port: Port, gains: SpineGains, friction: bool = False,

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import collections
 import json
-import math
 import struct
 import time
 from collections.abc import Callable
@@ -183,19 +182,7 @@ def run_bound(
     if tuple(legs_order) != ("HL", "HR", "FL", "FR"):
         raise ValueError(f"the log row lists the legs HL, HR, FL, FR, got {legs_order}")
     leg_dq = world.leg_rates  # HL, HR, FL, FR x (HAA, HFE, KFE)
-    if isinstance(gait, SineBoundController):
-        def gait_phase() -> float:
-            return gait.gait_phase / (2 * math.pi)
-
-        def gait_frequency() -> float:
-            return gait.frequency_hz
-    else:
-        def gait_phase() -> float:
-            return gait.phase
-
-        def gait_frequency() -> float:
-            return gait.p.frequency_hz
-
+    gait_phase, gait_frequency = gait.phase_fraction, gait.frequency
     latency = max(0, int(cfg.actuator_latency_steps))
     pipe: collections.deque = collections.deque()
     zero_legs = {k: (0.0, 0.0, 0.0) for k in legs_order}
@@ -224,8 +211,7 @@ def run_bound(
     # worlds that cannot rewind (pybullet).
     # (a spine that holds its torque between its own clock's calls: the direct spine with a clocked drive;
     # a node spine's torque moves every step and would rewind every chunk)
-    holds = (held_steps and world.can_rewind and isinstance(gait, SineBoundController)
-             and gait.clock is not None and isinstance(spine, DirectSpine) and spine.drive.clocked
+    holds = (held_steps and world.can_rewind and gait.clock is not None and spine.clocked
              and not latency and not prof and not frame_every and not realtime)
     idle_ticks = gait.clock.idle_ticks if holds else None
     if holds:
@@ -363,7 +349,7 @@ def run_bound(
     metrics = metrics_table.merge_disjoint(facts, metrics_table.measure(measured, ctx, t_start))
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
-    metrics["held_steps"] = int((aux[:i, 0] >= 0.0).sum()) if holds else 0  # steps through `step_held`
+    metrics["held_steps"] = int((aux[:i, 0] >= 0.0).sum()) if holds else 0  # steps run inside a chunk
     metrics["spine_path"] = spine.name
     metrics["spine_driver"] = spine.driver
     metrics["spine_backend"] = spine.backend

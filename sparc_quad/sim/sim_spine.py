@@ -36,6 +36,8 @@ class SimSpine(Protocol):
     driver: str  # what renders the spine: impedance | passive | rigid | rigid-impedance | node
     actuated: bool  # whether the spine torque is actuator work (False: a physical spring or a lock)
     backend: str | None  # the controller's per-step code ("pinocchio" | "numba"), None where not ours
+    clocked: bool  # computed only at its own clock's calls, the torque held between (a bound may step
+    #                the held steps in chunks); False: a torque that can change every step
 
     @property
     def task_pose(self) -> np.ndarray:
@@ -94,7 +96,8 @@ class DirectSpine:
         self._tau: list[float] = [0.0, 0.0, 0.0]
         # a clocked drive (`ScheduledDrive`) is filled and run only at its calls; its torque, held in
         # between, is kept here as floats
-        self._tick = self.drive.tick if self.drive.clocked else None
+        self.clocked = bool(self.drive.clocked)
+        self._tick = self.drive.tick if self.clocked else None
         self._held: list[float] = self.drive.tau.tolist() if self._tick is not None else []
 
     @property

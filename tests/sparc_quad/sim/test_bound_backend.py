@@ -31,9 +31,11 @@ class _Shadow(Gait):
         self.p, self.stance_flags = self.ref.p, self.ref.stance_flags
         self.max_diff, self.steps, self.mismatch = 0.0, 0, []
 
-    @property
-    def phase(self) -> float:
+    def phase_fraction(self) -> float:
         return self.ref.phase
+
+    def frequency(self) -> float:
+        return self.ref.p.frequency_hz
 
     def step(self, t: float):
         a, b = self.ref.step(t), self.comp.step(t)
