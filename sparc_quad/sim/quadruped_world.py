@@ -115,7 +115,7 @@ class LegState:
     contact: bool
 
 
-# what `QuadWorld.step_held` packs per step, named as the bound log's columns (sparc_quad.sim.bound_log)
+# what `QuadWorld.record_held` and `step_chunk` keep per step, named as the bound log's columns (bound_log)
 HELD_STATE = ("x", "y", "z", "q2", "q3", "q4", "dq2", "dq3", "dq4",
               *(f"contact_{leg}" for leg in LEGS), *(f"dq_{j}" for j in LEG_JOINTS))
 PACK_HELD = struct.Struct(f"{len(HELD_STATE)}d").pack_into

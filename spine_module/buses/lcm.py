@@ -30,6 +30,7 @@ MAX_MESSAGES_PER_RECEIVE = 64
 RECEIVE_BUDGET_S = 0.0005  # and spends at most this long dispatching beyond its own timeout
 QUEUE_CAPACITY = 16  # per subscription, for LCM's UDP provider (LCM drops what does not fit)
 LOCKSTEP_SPIN_S = 0.001  # the default poll before a lockstep wait blocks: covers a simulated robot's step
+_clock, _yield_cpu = time.perf_counter, os.sched_yield  # `handle`'s clock and yield (module-level: tests)
 
 
 def handle(lc: lcm.LCM, timeout_s: float, spin_s: float = 0.0) -> int:
@@ -37,9 +38,9 @@ def handle(lc: lcm.LCM, timeout_s: float, spin_s: float = 0.0) -> int:
     other runnable thread between polls) for the first `spin_s` of it, blocking for the rest. Returns
     LCM's `handle_timeout` result (> 0: a message was dispatched)."""
     if spin_s > 0.0:
-        clock = time.perf_counter
+        clock, yield_cpu = _clock, _yield_cpu
         end = clock() + min(spin_s, timeout_s)
-        poll, yield_cpu = lc.handle_timeout, os.sched_yield
+        poll = lc.handle_timeout
         while True:
             got = poll(0)
             if got != 0:
@@ -62,6 +63,9 @@ class LcmMotorBus(MotorBus):
             self.lc = lc if lc is not None else lcm.LCM(url)
         except (OSError, RuntimeError) as exc:
             raise MotorBusError(f"cannot open LCM at {url!r}: {exc}") from exc
+        if not spin_s >= 0.0:  # before anything subscribes on a shared handle
+            raise ValueError(f"spin_s must be >= 0 s, got {spin_s!r}")
+        self.spin_s = spin_s
         self.command_channel, self.feedback_channel = command_channel, feedback_channel
         self._newest: MotorFeedback | None = None
         self._error: codec.MessageError | None = None
@@ -70,9 +74,6 @@ class LcmMotorBus(MotorBus):
         self._sub = self.lc.subscribe(feedback_channel, self._on_feedback)
         self._sub.set_queue_capacity(QUEUE_CAPACITY)
         self.max_messages = max_messages
-        if not spin_s >= 0.0:
-            raise ValueError(f"spin_s must be >= 0 s, got {spin_s!r}")
-        self.spin_s = spin_s
         self.handled_last = 0  # LCM messages the last receive() dispatched (<= max_messages)
 
     def _on_feedback(self, channel: str, data: bytes) -> None:

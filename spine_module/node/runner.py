@@ -218,7 +218,8 @@ class SpineNode:
         self._sv = sv = _supervise_values(
             self._sv, now, _tuple_new(_Receipts, (self._rx_torso, self._rx_feedback, self._rx_command,
                                                   self._rx_heartbeat)), int(requested), reset, cfg.safety)
-        _, _, mode_i, _, _, _, faults, scale, default_gains, enable = sv
+        mode_i, faults, scale, default_gains, enable = sv.mode, sv.faults, sv.gain_scale, sv.default_gains, \
+            sv.enable
         mode = MODES[mode_i]
         # fault bits as a plain int inside the tick (IntFlag arithmetic costs ~1 us per operation)
         if self._pending_bus_fault:

@@ -31,8 +31,8 @@ class FakeLcm:
 @pytest.fixture
 def fake_clock(monkeypatch):
     now = [0.0]
-    monkeypatch.setattr(lcm_bus.time, "perf_counter", lambda: now[0])
-    monkeypatch.setattr(lcm_bus.os, "sched_yield", lambda: None)
+    monkeypatch.setattr(lcm_bus, "_clock", lambda: now[0])
+    monkeypatch.setattr(lcm_bus, "_yield_cpu", lambda: None)
     return now
 
 
