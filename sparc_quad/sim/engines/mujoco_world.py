@@ -74,6 +74,13 @@ def _from_urdf(path: Path, meta: dict) -> mujoco.MjSpec:
     return spec
 
 
+def _pitch_rate_roll_yaw(rot: tuple[float, ...], wx: float, wy: float, wz: float) -> tuple[float, ...]:
+    """(q1 = pitch, dq1 = pitch rate (world y of R w), roll, yaw) from the rotation matrix `rot`
+    (`_rotation`) and the free joint's body-frame angular velocity: `read`'s and the chunks' one formula."""
+    return (math.atan2(-rot[6], rot[0]), rot[3] * wx + rot[4] * wy + rot[5] * wz, math.atan2(rot[7], rot[8]),
+            math.atan2(rot[3], rot[0]))
+
+
 def _rotation(qw: float, qx: float, qy: float, qz: float) -> tuple[float, ...]:
     """Row-major rotation matrix (9 floats) of a unit quaternion."""
     return (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
@@ -221,10 +228,8 @@ class MujocoWorld(QuadWorld):
         w = (rot[0] * wx + rot[1] * wy + rot[2] * wz, rot[3] * wx + rot[4] * wy + rot[5] * wz,
              rot[6] * wx + rot[7] * wy + rot[8] * wz)
         self.base_omega = w
-        self.q1 = math.atan2(-rot[6], rot[0])  # pitch_of(base_quat), from the same matrix
-        self.dq1 = w[1]
-        self.roll = math.atan2(rot[7], rot[8])
-        self.yaw = math.atan2(rot[3], rot[0])
+        # q1 = pitch_of(base_quat) from the same matrix; dq1 = w[1]
+        self.q1, self.dq1, self.roll, self.yaw = _pitch_rate_roll_yaw(rot, wx, wy, wz)
         qa, da = self._qslice, self._dslice
         if qa is not None:
             self.jq = jq = qp[qa] + self._pad
@@ -346,21 +351,13 @@ class MujocoWorld(QuadWorld):
         self.read()
         states = []
         dt, held_q, held_dq = self.cfg.dt_s, self._held_q, self._held_dq
-        atan2 = math.atan2
         vs = vb[row + 1:row + k + 1].tolist()
         r = 0
         for qp in qb[row + 1:row + k + 1].tolist():
             qv = vs[r]
             r += 1
-            # read's q1, dq1, roll and yaw: the rotation matrix's entries 0 and 3..8 (`_rotation`)
-            qw, qx, qy, qz = qp[3:7]
-            wx, wy, wz = qv[3:6]
-            r0 = 1 - 2 * (qy * qy + qz * qz)
-            r3 = 2 * (qx * qy + qw * qz)
-            dq1 = r3 * wx + (1 - 2 * (qx * qx + qz * qz)) * wy + 2 * (qy * qz - qw * qx) * wz
-            states.append(((steps0 + r) * dt, atan2(-(2 * (qx * qz - qw * qy)), r0), dq1,
-                           atan2(2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)), atan2(r3, r0),
-                           held_q(qp), held_dq(qv), False))
+            q1, dq1, roll, yaw = _pitch_rate_roll_yaw(_rotation(*qp[3:7]), *qv[3:6])  # as `read`
+            states.append(((steps0 + r) * dt, q1, dq1, roll, yaw, held_q(qp), held_dq(qv), False))
         return states
 
     def rewind(self, r: int) -> None:
