@@ -170,9 +170,7 @@ class RobotSide:
                 return cmd
             self.retransmits += 1
             torso, fb = self._sent
-            self.port.publish_torso(torso)
-            if fb is not None:
-                self.port.publish_feedback(fb)
+            self.port.publish_tick(torso, None, None, fb)  # the tick again, as sent (rtt from the first)
 
     def run_lockstep(self, n_ticks: int, stop: Callable[[], bool] | None = None) -> None:
         for _ in range(n_ticks):
