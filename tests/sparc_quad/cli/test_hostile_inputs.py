@@ -47,6 +47,10 @@ def _cases(tmp: Path) -> list[tuple[str, list[str]]]:
         *[("motor ids", ["motors", "scan", "--ids", v])
           for v in ("0", "200", "-1", "nan", "", "1,,2", "0x80")],
         ("reply timeout", ["motors", "scan", "--timeout", "1e12"]),
+        *[("lockstep poll", [*cmd, flag, v])
+          for cmd, flag in ((["spine-node"], "--spin-us"), (["bench-robot"], "--spin-us"),
+                            (["bound", "--lcm"], "--lcm-spin-us"))
+          for v in ("nan", "-1", "1e12", "")],
         ("watchdog deadline", ["motors", "watchdog", "--deadline", "1e12"]),
         ("host id", ["motors", "scan", "--host-id", "256"]),
         ("set-id without --new-id", ["motors", "set-id", "--ids", "1", "--yes", "--can-interface",
