@@ -52,16 +52,6 @@ def _make_tmp(path: Path) -> None:
     os.mkdir(path, 0o700)
 
 
-def _new_tmp(out: Path) -> Path:
-    """A fresh temporary sibling of `out`, named before it is made: whatever interrupts its creation, the
-    clean-up knows its name."""
-    for _ in range(100):
-        tmp = out.parent / f".{out.name}.tmp-{secrets.token_hex(4)}"
-        if not tmp.exists():
-            return tmp
-    raise FileExistsError(f"no free temporary name beside {out}")
-
-
 @contextlib.contextmanager
 def atomic_dir(out: Path) -> Iterator[Path]:
     """A temporary folder beside `out` to write the whole result into; its files move into `out` on
@@ -79,8 +69,15 @@ def atomic_dir(out: Path) -> Iterator[Path]:
         signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
         try:
             out.parent.mkdir(parents=True, exist_ok=True)
-            tmp = _new_tmp(out)
-            _make_tmp(tmp)
+            for _ in range(100):  # named before it is made: the clean-up knows it
+                tmp = out.parent / f".{out.name}.tmp-{secrets.token_hex(4)}"
+                try:
+                    _make_tmp(tmp)
+                    break
+                except FileExistsError:  # another's folder: never the clean-up's to remove
+                    tmp = None
+            else:
+                raise OSError(f"no free temporary name beside {out}")
         except OSError as exc:
             raise BadInput(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
         signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)  # a held interrupt is raised here, inside

@@ -150,3 +150,18 @@ def test_an_interrupt_inside_the_folder_creation_leaves_no_folder_and_no_blocked
         signal.signal(signal.SIGINT, old)
     assert not list(tmp_path.glob(".out.*")), "temporary folder left behind"
     assert signal.SIGINT not in mask and signal.SIGTERM not in mask, f"signals left blocked: {mask}"
+
+
+def test_a_name_taken_by_another_folder_is_skipped_and_left_alone(tmp_path, monkeypatch):
+    from sparc_quad.cli import output
+
+    theirs = tmp_path / ".out.tmp-aaaa"
+    theirs.mkdir()
+    (theirs / "keep.txt").write_text("not ours")
+    names = iter(["aaaa", "bbbb"])
+    monkeypatch.setattr(output.secrets, "token_hex", lambda n: next(names))
+    with atomic_dir(tmp_path / "out") as tmp:
+        assert tmp.name == ".out.tmp-bbbb"
+        (tmp / "r.json").write_text("{}")
+    assert (theirs / "keep.txt").read_text() == "not ours"
+    assert (tmp_path / "out" / "r.json").exists() and not (tmp_path / ".out.tmp-bbbb").exists()
