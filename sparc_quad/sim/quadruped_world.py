@@ -18,7 +18,6 @@ import collections
 import json
 import math
 import operator
-import struct
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -115,10 +114,9 @@ class LegState:
     contact: bool
 
 
-# what `QuadWorld.record_held` and `step_chunk` keep per step, named as the bound log's columns (bound_log)
+# what `QuadWorld.step_chunk` keeps per step (`held_rows`), named as the bound log's columns (bound_log)
 HELD_STATE = ("x", "y", "z", "q2", "q3", "q4", "dq2", "dq3", "dq4",
               *(f"contact_{leg}" for leg in LEGS), *(f"dq_{j}" for j in LEG_JOINTS))
-PACK_HELD = struct.Struct(f"{len(HELD_STATE)}d").pack_into
 
 ABSENT = -1  # the joint index of a leg joint the robot does not have (the spined dog's abduction)
 
@@ -270,38 +268,27 @@ class QuadWorld(ABC):
         """Apply the torques, advance one dt, refresh the state."""
 
     # ---- held steps (a controller holding its output between calls: sparc_quad.sim.bound_run) ---------
-    can_rewind = False  # whether `rewind` can take back part of a chunk (then chunks may be long)
+    # Only a world that can take back part of a chunk (`can_rewind`) runs them; `run_bound` steps every
+    # other world in full, so these are declared here and implemented by such a world (MuJoCo).
+    can_rewind = False
 
     def start_held(self, n_rows: int) -> None:
-        """Room for the states before steps 0 .. n_rows - 1 (`record_held`, `step_chunk`; `held_rows`)."""
-        self._held = np.zeros((n_rows, len(HELD_STATE)))
-
-    def record_held(self, row: int) -> None:
-        """Keep the present state (read in full) as the state before step `row` (`step_chunk`)."""
-        cf = self.contact_force
-        PACK_HELD(self._held, row * 8 * len(HELD_STATE), *self.base_pos, *self.q_spine, *self.dq_spine,
-                  cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0, *self.leg_rates())
+        """Room for the states before steps 0 .. n_rows - 1 (`step_chunk`; `held_rows`)."""
+        raise NotImplementedError(f"the {self.engine} world does not step held chunks")
 
     def step_chunk(self, k: int, row: int) -> list[tuple]:
         """Advance k steps with the torques last set (`set_torques`), keeping each new state as the state
         before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, yaw, q_spine, dq_spine,
-        body_contact). The state attributes are the last state's, read in full. This default is `step`
-        k times (without `rewind`: a chunk cannot be taken back, so the bound does not use it)."""
-        states = []
-        for r in range(1, k + 1):
-            self.step()
-            self.record_held(row + r)
-            states.append((self.t, self.q1, self.dq1, self.roll, self.yaw, self.q_spine, self.dq_spine,
-                           self.body_contact))
-        return states
+        body_contact), as `read` gives them. The state attributes are the last state's, read in full."""
+        raise NotImplementedError(f"the {self.engine} world does not step held chunks")
 
     def rewind(self, r: int) -> None:
-        """Back to the last chunk's r-th new state (1 <= r < k), read in full (worlds with `can_rewind`)."""
+        """Back to the last chunk's r-th new state (1 <= r < k), read in full."""
         raise NotImplementedError(f"the {self.engine} world does not rewind")
 
     def held_rows(self, rows: np.ndarray) -> np.ndarray:
         """The HELD_STATE values of the kept states before steps `rows`."""
-        return self._held[rows]
+        raise NotImplementedError(f"the {self.engine} world does not step held chunks")
 
     @abstractmethod
     def close(self) -> None: ...

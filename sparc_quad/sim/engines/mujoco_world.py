@@ -319,9 +319,13 @@ class MujocoWorld(QuadWorld):
             per_foot[key] = per_foot.get(key, 0) + 1
         return all(v == 1 for v in per_foot.values())
 
+    def _need_chunks(self) -> None:
+        if not self.can_rewind:  # run_bound checks can_rewind first: reaching this is a caller's bug
+            raise NotImplementedError("this MuJoCo world's contacts are not feet on a floor plane only: "
+                                      "its steps cannot be chunked")
+
     def start_held(self, n_rows: int) -> None:
-        if not self.can_rewind:
-            return super().start_held(n_rows)
+        self._need_chunks()
         self._qb = np.zeros((n_rows, self.model.nq))
         self._vb = np.zeros((n_rows, self.model.nv))
         self._sb = np.zeros((n_rows, self.model.nsensordata))
@@ -329,8 +333,7 @@ class MujocoWorld(QuadWorld):
     def step_chunk(self, k: int, row: int) -> list[tuple]:
         """`QuadWorld.step_chunk` as k mj_steps back to back, each new state's qpos, qvel and foot sensors
         copied into the run's buffers, then converted."""
-        if not self.can_rewind:
-            return super().step_chunk(k, row)
+        self._need_chunks()
         m, d, step, clock = self.model, self.data, mujoco.mj_step, time.perf_counter
         qpos, qvel, sens, qb, vb, sb = self._qpos, self._qvel, self._sens, self._qb, self._vb, self._sb
         self._set_ctrl()
@@ -378,8 +381,7 @@ class MujocoWorld(QuadWorld):
     def held_rows(self, rows: np.ndarray) -> np.ndarray:
         """The HELD_STATE values of the states before steps `rows`, copied from the raw buffers (the
         foot flags: the sensors' normal force > 0, as `read`'s)."""
-        if not self.can_rewind:
-            return super().held_rows(rows)
+        self._need_chunks()
         qp, qv, sn = self._qb[rows], self._vb[rows], self._sb[rows]
         out = np.zeros((len(rows), len(HELD_STATE)))
         out[:, 0:3] = qp[:, 0:3]

@@ -104,13 +104,13 @@ def test_mujoco_chunk_keeps_what_read_gives():
     assert (b.t, b.jq, b.jdq, b.contact_force) == (c.t, c.jq, c.jdq, c.contact_force)
 
 
-def test_default_chunk_is_step_by_step():
-    """The interface's fallback (pybullet): `step` k times, each state kept as `read` gives it."""
+def test_a_world_that_cannot_rewind_is_stepped_in_full():
+    """pybullet cannot take back part of a chunk: the bound steps every step through the full path."""
     pytest.importorskip("pybullet")
-    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0, engine="pybullet")
-    a, b = make_world(cfg.world), make_world(cfg.world)
-    assert not b.can_rewind
-    _chunk_against_steps(a, b, 20)
+    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=0.3, engine="pybullet")
+    with make_world(cfg.world) as w:
+        assert not w.can_rewind
+    assert run_bound(cfg).metrics["held_steps"] == 0
 
 
 def test_chunk_rewinds_when_the_spine_torque_changes():
