@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import shlex
 import shutil
 import statistics
@@ -285,14 +284,10 @@ def main() -> int:
         result.update(transport_legs(args))
     if args.bound_s > 0:
         result.update(bound_legs(args.bound_s, args.bound_repeat, not args.no_unpinned))
-    result.update(python=platform.python_version(), machine=platform.machine(),
-                  load_average=Path("/proc/loadavg").read_text().split()[:3]
-                  if Path("/proc/loadavg").exists() else None)
-    for k, v in result.items():
-        print(f"{k:44s} {v}")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result, indent=2))
+    from bench_io import emit, host_facts  # here: the ping/pong roles need no pinocchio
+
+    result.update(host_facts())
+    emit(result, args.json, width=44)
     return 0
 
 
