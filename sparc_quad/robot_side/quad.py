@@ -22,7 +22,6 @@ from sparc_quad.sim.quadruped_world import EstimatorOutput
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, TaskKinematics
 from spine_module import params as P
 from spine_module.buses.inprocess import InProcessBus, InProcessLink
-from spine_module.buses.lcm import LOCKSTEP_SPIN_S
 from spine_module.messages import Mode, SpineCommand, SpineState
 from spine_module.node import Controllers, NodeConfig, SpineNode
 from spine_module.node.io import InProcessNodeIO
@@ -81,8 +80,8 @@ class NodeSpine:
 
     @classmethod
     def over_lcm(cls, gains: SpineGains, friction: bool = False, url: str = "", lockstep: bool = True,
-                 wait_node_s: float = 30.0, spin_s: float = LOCKSTEP_SPIN_S, **kw) -> NodeSpine:
-        """`spin_s`: how long a lockstep wait for the node's answer polls before it blocks."""
+                 wait_node_s: float = 30.0, spin_s: float = 0.0, **kw) -> NodeSpine:
+        """`spin_s`: how long a lockstep wait for the node's answer polls before it blocks (0: at once)."""
         spine = cls(LcmPort(url, spin_s=spin_s), gains, friction, lockstep=lockstep, **kw)
         if not spine.robot.wait_for_node(wait_node_s):  # tick 0 must not be published into the void
             spine.port.close()

@@ -8,10 +8,11 @@ raises `MotorBusError` from `receive` with the `MessageError` (naming the field)
 Pass `lc` to share one `lcm.LCM` with the node's other channels: messages then dispatch in the order the
 robot sent them (torso state before the motor feedback of the same tick), which lockstep relies on.
 
-`spin_s`: a lockstep wait polls for up to this long before it blocks (`handle`). A blocked thread lets
-its CPU go idle, and waking an idle CPU is what a lockstep round trip pays for on every message: on the
-2-vCPU KVM guest the project is measured on, a publish that wakes the other side costs 40-70 us against
-~3 us to a receiver that is awake (docs/performance.md, "LCM lockstep").
+`spin_s` (default 0: block at once): a lockstep wait polls for up to this long before it blocks
+(`handle`). A blocked thread lets its CPU go idle, and waking an idle CPU is what a lockstep round trip
+pays for on every message: on the 2-vCPU KVM guest the project is measured on, a publish that wakes the
+other side costs 40-70 us against ~3 us to a receiver that is awake. Worth it only where the peers have
+CPUs of their own (`DEDICATED_CPU_SPIN_S`; docs/performance.md, "LCM lockstep").
 """
 
 from __future__ import annotations
@@ -29,7 +30,10 @@ from spine_module.messages import channels, codec
 MAX_MESSAGES_PER_RECEIVE = 64
 RECEIVE_BUDGET_S = 0.0005  # and spends at most this long dispatching beyond its own timeout
 QUEUE_CAPACITY = 16  # per subscription, for LCM's UDP provider (LCM drops what does not fit)
-LOCKSTEP_SPIN_S = 0.001  # the default poll before a lockstep wait blocks: covers a simulated robot's step
+# A poll that covers a simulated robot's step, for lockstep peers on CPUs of their own. Not the default:
+# where other work competes for the CPUs a spinning wait holds its CPU against it (measured: 4.3x slower
+# than blocking with two busy loops beside the pair, 15 % faster without; docs/performance.md).
+DEDICATED_CPU_SPIN_S = 0.001
 _clock, _yield_cpu = time.perf_counter, os.sched_yield  # `handle`'s clock and yield (module-level: tests)
 
 
