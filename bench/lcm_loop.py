@@ -17,13 +17,15 @@ with `unshare`, as the tests do):
 4. bound: `sparc-quad bound --lcm` + `spine-node --motors lcm --clock lockstep` against the
    same bound in process (`run_bound`, default spine), same robot, same simulated seconds, best of
    `--bound-repeat` each, alternating. Headline `lcm_lockstep_over_in_process` = in-process wall / LCM
-   lockstep wall (goal >= 0.5). The two processes are pinned to two different CPUs (`taskset`), as a node
-   on its own torso computer would be: unpinned, Linux wakes the node on the robot's CPU (wake-affine) and
-   the two alternate on one core. One unpinned run is reported beside it (`--no-unpinned` skips it). The
+   lockstep wall (goal >= 0.5) with both commands' defaults except the URL: the co-simulation's
+   `channels.COSIM_URL` (LCM's multi-port provider) on both sides. Beside it, the same with the default
+   `udpm` URL (`lcm_lockstep_udpm_*`) and with both sides polling 1000 us before they block
+   (`--spin-us`, for peers on CPUs of their own; `lcm_lockstep_spin_*`). The commands' defaults hold the
+   CPUs' wake latency at 0 us (PM QoS) while they run, where the user may (root); `wake_latency_held`
+   says whether it was. The two processes are pinned to two different CPUs (`taskset`), as a node on its
+   own torso computer would be: unpinned, Linux wakes the node on the robot's CPU (wake-affine) and the
+   two alternate on one core. One unpinned run is reported beside it (`--no-unpinned` skips it). The
    LCM run's trajectory is checked against the node ticked in process (max |difference| reported).
-   The headline runs the commands' defaults (waits block at once); one pinned run per repeat with both
-   sides polling 1000 us before they block (`--spin-us`, for peers on CPUs of their own) is reported
-   beside it (`lcm_lockstep_spin_*`).
 
     python bench/lcm_loop.py --json out/bench/lcm_loop.json [--bound-s 5 --bound-repeat 3]
 """
@@ -119,15 +121,19 @@ def _pin_cpus() -> tuple[int, int] | None:
 
 
 def lcm_bound(duration_s: float, pin: tuple[int, int] | None, keep: Path | None = None,
-              spin_us: float | None = None) -> float:
+              spin_us: float | None = None, url: str | None = None) -> float:
     """Wall time of `run_bound` in the robot process (its metrics' `wall_time_s`) of a `bound --lcm` run
     against a lockstep spine node, two processes in a network namespace; `keep`: copy its CSV there;
-    `spin_us`: both sides' lockstep poll before blocking (None: the commands' default)."""
+    `spin_us`: both sides' lockstep poll before blocking; `url`: both sides' LCM URL (None: the commands'
+    defaults)."""
     py = shlex.quote(sys.executable)
     node_pin, robot_pin = (f"taskset -c {pin[0]} ", f"taskset -c {pin[1]} ") if pin else ("", "")
     node_spin = robot_spin = ""
     if spin_us is not None:
         node_spin, robot_spin = f"--spin-us {spin_us:g} ", f"--lcm-spin-us {spin_us:g} "
+    if url is not None:
+        node_spin += f"--lcm-url {shlex.quote(url)} "
+        robot_spin += f"--lcm-url {shlex.quote(url)} "
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         script = (f"set -e\n{SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}\n"
@@ -158,18 +164,20 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
     from sparc_quad.sim.bound_log import COLUMNS
     from sparc_quad.sim.bound_run import BoundConfig, run_bound
     from spine_module.buses.lcm import DEDICATED_CPU_SPIN_S
+    from spine_module.messages.channels import COSIM_URL
 
     pin = _pin_cpus()
     cfg = BoundConfig(duration_s=duration_s)
-    inproc, lcm_pinned, lcm_free, lcm_spin = [], [], [], []
+    inproc, lcm_pinned, lcm_udpm, lcm_free, lcm_spin = [], [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         csv = Path(tmp) / "lcm.csv"
         for i in range(repeat):
             inproc.append(run_bound(cfg).wall_s)
-            lcm_pinned.append(lcm_bound(duration_s, pin, keep=csv if i == 0 else None))
-            lcm_spin.append(lcm_bound(duration_s, pin, spin_us=DEDICATED_CPU_SPIN_S * 1e6))
+            lcm_pinned.append(lcm_bound(duration_s, pin, keep=csv if i == 0 else None, url=COSIM_URL))
+            lcm_udpm.append(lcm_bound(duration_s, pin))
+            lcm_spin.append(lcm_bound(duration_s, pin, spin_us=DEDICATED_CPU_SPIN_S * 1e6, url=COSIM_URL))
         if unpinned and pin is not None:
-            lcm_free.append(lcm_bound(duration_s, None))
+            lcm_free.append(lcm_bound(duration_s, None, url=COSIM_URL))
         lcm_series = np.loadtxt(csv, delimiter=",", skiprows=1)
     ref = run_bound(cfg, spine=NodeSpine.inprocess(cfg.spine)).series
     cols = [COLUMNS.index(c) for c in ("x", "z", "q1_true", "q2", "q3", "q4", "tau2", "tau3", "tau4")]
@@ -181,6 +189,10 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
         "in_process_bound_wall_s": best_in,
         "lcm_lockstep_bound_wall_s": best_lcm,
         "lcm_lockstep_over_in_process": best_in / best_lcm,
+        "lcm_url": COSIM_URL,
+        "wake_latency_held": _wake_latency_allowed(),
+        "lcm_lockstep_udpm_bound_wall_s": min(lcm_udpm),
+        "lcm_lockstep_udpm_over_in_process": best_in / min(lcm_udpm),
         "lcm_lockstep_spin_us": DEDICATED_CPU_SPIN_S * 1e6,
         "lcm_lockstep_spin_over_in_process": best_in / min(lcm_spin),
         "lcm_lockstep_us_per_tick_over_in_process": 1e6 * (best_lcm - best_in) / round(duration_s * 1000),
@@ -188,9 +200,16 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
         "lcm_lockstep_unpinned_wall_s": min(lcm_free) if lcm_free else None,
         "lcm_lockstep_unpinned_over_in_process": best_in / min(lcm_free) if lcm_free else None,
         "lcm_vs_node_in_process_max_abs_diff": diff,
-        "bound_all_runs_s": {"in_process": inproc, "lcm_lockstep": lcm_pinned,
+        "bound_all_runs_s": {"in_process": inproc, "lcm_lockstep": lcm_pinned, "lcm_lockstep_udpm": lcm_udpm,
                              "lcm_lockstep_spin": lcm_spin, "lcm_unpinned": lcm_free},
     }
+
+
+def _wake_latency_allowed() -> bool:
+    """Whether the commands' default wake-latency request can be held here (PM QoS needs root)."""
+    from spine_module.node.realtime import CPU_DMA_LATENCY
+
+    return os.access(CPU_DMA_LATENCY, os.W_OK)
 
 
 def _stats_us(xs: list[float]) -> dict[str, float]:

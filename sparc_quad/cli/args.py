@@ -89,6 +89,29 @@ def add_spin_option(p: argparse.ArgumentParser, flag: str = "--spin-us") -> None
                         f"{SPIN_MAX_US:g} (default: %(default)s, block at once)")
 
 
+WAKE_LATENCY_MAX_US = 1_000_000
+
+
+def wake_latency_us(text: str) -> int | None:
+    """A CPU wake-latency bound in us, or `off` (None: nothing is requested)."""
+    if text.strip().lower() == "off":
+        return None
+    return int(in_range(0, WAKE_LATENCY_MAX_US, kind=int)(text))
+
+
+def add_wake_latency_option(p: argparse.ArgumentParser, flag: str = "--wake-latency-us",
+                            when: str = "") -> None:
+    """The PM QoS wake-latency request (`spine_module.node.realtime.hold_wake_latency`), one spelling."""
+    from spine_module.node.realtime import WAKE_LATENCY_DEFAULT_US
+
+    p.add_argument(flag, type=wake_latency_us, default=WAKE_LATENCY_DEFAULT_US, metavar="US|off",
+                   help=f"{when}while this process runs, keep every CPU's idle wake-up within this many "
+                        "microseconds (Linux PM QoS, /dev/cpu_dma_latency; needs root, else skipped with a "
+                        "warning): an idle CPU then polls instead of halting, so a message for a waiting "
+                        f"peer is taken at once. 0..{WAKE_LATENCY_MAX_US}, or off "
+                        "(default: %(default)s)")
+
+
 def nonempty(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("must not be empty")

@@ -16,6 +16,7 @@ from sparc_quad.cli.args import (
     WAIT_MAX_S,
     add_gain_options,
     add_spin_option,
+    add_wake_latency_option,
     damping,
     fraction_open,
     in_range,
@@ -115,6 +116,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lcm-url", type=lcm_url, default=channels.DEFAULT_URL,
                    help="--lcm: LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
     add_spin_option(p, "--lcm-spin-us")
+    add_wake_latency_option(p, "--lcm-wake-latency-us", when="--lcm: ")
     p.add_argument("--wait-node", type=wait_s, default=30.0,
                    help=f"--lcm: wait this long (wall s, up to {WAIT_MAX_S:g}) for the node's first "
                         "heartbeat")
@@ -223,7 +225,11 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput("--rigid-spine / --spine-variant other than impedance do not use the spine node")
     if args.lcm:
         from sparc_quad.robot_side.quad import NodeSpine
+        from spine_module.node import realtime
 
+        if args.lcm_wake_latency_us is not None:
+            done = realtime.hold_wake_latency(args.lcm_wake_latency_us)
+            log.log(logging.WARNING if " not " in done else logging.INFO, "bound --lcm: %s", done)
         try:
             spine = NodeSpine.over_lcm(cfg.spine, cfg.friction_compensation, url=args.lcm_url,
                                        lockstep=not args.realtime, wait_node_s=args.wait_node,

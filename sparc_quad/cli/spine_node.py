@@ -20,6 +20,7 @@ from sparc_quad.cli.args import (
     SIM_DURATION_MAX_S,
     add_can_options,
     add_spin_option,
+    add_wake_latency_option,
     can_options,
     in_range,
     lcm_url,
@@ -78,6 +79,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="run under SCHED_FIFO at this priority, 1..99 (needs root, CAP_SYS_NICE or rtprio)")
     rt.add_argument("--lock-memory", action="store_true",
                     help="lock the process's memory (mlockall) so no page fault stalls a tick; best effort")
+    add_wake_latency_option(rt)
     add_can_options(p)
     add_experiment_args(p)
     p.set_defaults(func=run)
@@ -138,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         rt_done = realtime.apply(realtime.RtOptions(cpu=args.cpu, rt_priority=args.rt_priority,
-                                                    lock_memory=args.lock_memory))
+                                                    lock_memory=args.lock_memory,
+                                                    wake_latency_us=args.wake_latency_us))
         for line in rt_done:
             log.log(logging.WARNING if " not " in line else logging.INFO, "spine-node: %s", line)
     except realtime.RtSetupError as exc:

@@ -1,9 +1,10 @@
 """Real-time set-up of the node's process for a torso computer: CPU affinity, SCHED_FIFO priority,
-locked memory, and a frozen garbage collector.
+locked memory, a CPU wake-latency request, and a frozen garbage collector.
 
 Each step says what it did or why it could not: `--cpu` and `--rt-priority` were asked for explicitly, so
 failing them is an `RtSetupError` (the node refuses to run with less than it was asked for); memory
-locking is best effort (`lock_memory`), reported and skipped where the kernel or the limits refuse.
+locking and the wake-latency request are best effort (`lock_memory`, `hold_wake_latency`), reported and
+skipped where the kernel or the permissions refuse.
 Linux only (os.sched_setaffinity / os.sched_setscheduler, mlockall from libc).
 """
 
@@ -14,6 +15,7 @@ import ctypes.util
 import errno
 import gc
 import os
+import struct
 import sys
 from dataclasses import dataclass
 
@@ -22,6 +24,15 @@ MCL_CURRENT, MCL_FUTURE = 1, 2  # <sys/mman.h> on Linux
 # (CPython's default is 5 ms, five whole ticks); measured on bench/can_loop.py with SCHED_FIFO at load ~1.5:
 # 0.984-0.994 of 1 kHz with 5 ms, 0.996-0.998 with 0.2 ms.
 RT_SWITCH_INTERVAL_S = 0.0002
+# The kernel's PM QoS interface (Documentation/power/pm_qos_interface.rst): while a process keeps this file
+# open with a 32-bit value written, no CPU enters an idle state whose exit latency exceeds that many us.
+# With 0 an idle CPU polls instead of halting, so a message for a blocked peer is taken at once instead of
+# after the CPU's wake-up (on a KVM guest with the haltpoll driver: an exit to the host, 40-70 us per
+# message measured; docs/performance.md "LCM lockstep"). cyclictest asks for 0 by default for the same
+# reason. It costs power while the process lives, never CPU time that runnable work could have had.
+CPU_DMA_LATENCY = "/dev/cpu_dma_latency"
+WAKE_LATENCY_DEFAULT_US = 0
+_wake_latency_fds: list[int] = []  # held open for the life of the process: closing drops the request
 
 
 class RtSetupError(RuntimeError):
@@ -33,6 +44,7 @@ class RtOptions:
     cpu: int | None = None  # pin the process to this CPU
     rt_priority: int | None = None  # SCHED_FIFO priority 1..99
     lock_memory: bool = False  # mlockall(MCL_CURRENT | MCL_FUTURE), best effort
+    wake_latency_us: int | None = None  # PM QoS CPU wake-latency bound, us (hold_wake_latency), best effort
     freeze_gc: bool = False  # see freeze_startup_objects: call it once everything is built instead
 
 
@@ -79,6 +91,35 @@ def _lock_memory() -> str:
     return f"memory not locked: {why.get(err, os.strerror(err))}"
 
 
+def hold_wake_latency(us: int, path: str = CPU_DMA_LATENCY) -> str:
+    """Ask the kernel to keep every CPU's idle exit latency at or below `us` microseconds for as long as
+    this process lives (PM QoS, `CPU_DMA_LATENCY`). Best effort: where the file is missing or not
+    writable (it needs root) the reason is returned and nothing changes."""
+    if not 0 <= us <= 2**31 - 1:
+        raise ValueError(f"wake latency must be 0..{2**31 - 1} us, got {us!r}")
+    try:
+        fd = os.open(path, os.O_WRONLY)
+    except FileNotFoundError:
+        return f"CPU wake latency not requested: {path} does not exist (a kernel without PM QoS)"
+    except PermissionError:
+        return f"CPU wake latency not requested: {path} is not writable by this user (needs root)"
+    except OSError as exc:
+        return f"CPU wake latency not requested: {path}: {exc.strerror}"
+    try:
+        os.write(fd, struct.pack("=i", us))
+    except OSError as exc:
+        os.close(fd)
+        return f"CPU wake latency not requested: writing {path} failed: {exc.strerror}"
+    _wake_latency_fds.append(fd)
+    return f"CPU wake latency held at <= {us} us while this process runs ({path})"
+
+
+def release_wake_latency() -> None:
+    """Drop this process's wake-latency requests (they also end when the process exits)."""
+    while _wake_latency_fds:
+        os.close(_wake_latency_fds.pop())
+
+
 def apply(options: RtOptions) -> list[str]:
     """Apply the options to this process; returns one line per setting saying what happened.
 
@@ -88,6 +129,8 @@ def apply(options: RtOptions) -> list[str]:
         done.append(_set_cpu(options.cpu))
     if options.lock_memory:
         done.append(_lock_memory())
+    if options.wake_latency_us is not None:
+        done.append(hold_wake_latency(options.wake_latency_us))
     if options.rt_priority is not None:
         done.append(_set_priority(options.rt_priority))
     if options.freeze_gc:

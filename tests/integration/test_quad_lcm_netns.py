@@ -4,7 +4,8 @@ test creates, in lockstep, against the same bound with the node in process.
 
 Asserts: no fall and forward progress both ways; every tick answered; the node's q1 is the estimator's q1
 (noise, bias and delay included) on every tick; the LCM trajectory equals the in-process one.
-Reduced size (2.5 s of bounding) to keep the default suite short.
+Run on LCM's default provider (udpm, the URL every LCM tool uses) and on the co-simulation's
+(`channels.COSIM_URL`, mpudpm). Reduced size (2.5 s of bounding) to keep the default suite short.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import pytest
 
 from sparc_quad.robot_side.quad import NodeSpine
 from sparc_quad.sim.bound_run import BoundConfig, run_bound
+from spine_module.messages import channels
 from tests.node_netns import run_in_netns, unshare_prefix
 from tests.paths import ROOT
 
@@ -28,17 +30,19 @@ pytestmark = [pytest.mark.netns,
               pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")]
 
 
-@pytest.fixture(scope="module")
-def lcm_run(tmp_path_factory):
+@pytest.fixture(scope="module", params=["default", "cosim"])
+def lcm_run(request, tmp_path_factory):
     # bound replaces its --out folder when done (atomic output): the node's files live beside it
     out = tmp_path_factory.mktemp("quad_lcm")
     py = shlex.quote(sys.executable)
+    url = f"--lcm-url {shlex.quote(channels.COSIM_URL)} " if request.param == "cosim" else ""
     script = f"""
 export PYTHONPATH={shlex.quote(str(ROOT))}
-{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 \
+{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 {url}\
     --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
 NODE=$!
-{py} -m sparc_quad bound --lcm --duration {DURATION} --out {out}/bound > {out}/robot.out 2> {out}/robot.err
+{py} -m sparc_quad bound --lcm {url}--duration {DURATION} --out {out}/bound \
+    > {out}/robot.out 2> {out}/robot.err
 wait $NODE
 """
     r = run_in_netns(script, ROOT, timeout_s=240)

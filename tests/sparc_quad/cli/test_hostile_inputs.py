@@ -51,6 +51,10 @@ def _cases(tmp: Path) -> list[tuple[str, list[str]]]:
           for cmd, flag in ((["spine-node"], "--spin-us"), (["bench-robot"], "--spin-us"),
                             (["bound", "--lcm"], "--lcm-spin-us"))
           for v in ("nan", "-1", "1e12", "")],
+        *[("wake latency", [*cmd, flag, v])
+          for cmd, flag in ((["spine-node"], "--wake-latency-us"),
+                            (["bound", "--lcm"], "--lcm-wake-latency-us"))
+          for v in ("nan", "-1", "1e12", "", "0.5", "of")],
         ("watchdog deadline", ["motors", "watchdog", "--deadline", "1e12"]),
         ("host id", ["motors", "scan", "--host-id", "256"]),
         ("set-id without --new-id", ["motors", "set-id", "--ids", "1", "--yes", "--can-interface",

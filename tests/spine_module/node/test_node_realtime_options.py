@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -116,11 +117,62 @@ def test_node_summary_reports_the_period_histogram(tmp_path: Path) -> None:
                        capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert r.returncode == 0, r.stderr
     s = json.loads(out.read_text())
-    lock = s["realtime"][0]
+    lock, wake, frozen = s["realtime"]  # in the order applied; the wake latency by default
     assert lock == "memory locked (mlockall)" or lock.startswith("memory not locked: ")
-    assert "frozen" in s["realtime"][1]
+    assert wake.startswith(("CPU wake latency held at <= 0 us", "CPU wake latency not requested"))
+    assert "frozen" in frozen
     p = s["period"]
     assert p["ticks_measured"] == s["ticks"] - 1
     assert 0 < p["p50_us"] <= p["p99_us"] <= p["p99_9_us"] <= p["max_us"]
     assert p["nominal_us"] == 1000.0
     assert s["overruns"] >= 0
+
+
+def test_wake_latency_request_is_written_and_held_until_released(tmp_path) -> None:
+    qos = tmp_path / "cpu_dma_latency"
+    qos.write_bytes(b"")
+    line = realtime.hold_wake_latency(7, path=str(qos))
+    try:
+        assert line.startswith("CPU wake latency held at <= 7 us")
+        assert qos.read_bytes() == struct.pack("=i", 7)  # the kernel's format: one native 32-bit integer
+        assert len(realtime._wake_latency_fds) == 1  # open: closing the file would drop the request
+    finally:
+        realtime.release_wake_latency()
+    assert realtime._wake_latency_fds == []
+
+
+@pytest.mark.parametrize("make, why", [
+    (lambda d: d / "absent", "does not exist"),
+    (lambda d: d, "Is a directory"),
+])
+def test_wake_latency_not_available_is_reported_not_raised(tmp_path, make, why) -> None:
+    line = realtime.hold_wake_latency(0, path=str(make(tmp_path)))
+    assert line.startswith("CPU wake latency not requested") and why in line
+    assert realtime._wake_latency_fds == []
+
+
+def test_wake_latency_not_permitted_says_root(monkeypatch) -> None:
+    def refuse(*_a):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(realtime.os, "open", refuse)
+    assert "needs root" in realtime.hold_wake_latency(0)
+
+
+def test_wake_latency_out_of_range_is_a_caller_error() -> None:
+    with pytest.raises(ValueError, match=r"0\.\.2147483647 us"):
+        realtime.hold_wake_latency(-1)
+
+
+def test_rt_options_apply_the_wake_latency(monkeypatch) -> None:
+    asked = []
+    monkeypatch.setattr(realtime, "hold_wake_latency", lambda us: asked.append(us) or f"held {us}")
+    assert realtime.apply(realtime.RtOptions(wake_latency_us=0)) == ["held 0"]
+    assert realtime.apply(realtime.RtOptions()) == [] and asked == [0]
+
+
+@pytest.mark.parametrize("text, value", [("0", 0), ("50", 50), ("off", None), (" OFF ", None)])
+def test_wake_latency_option_parses_microseconds_or_off(text, value) -> None:
+    from sparc_quad.cli.args import wake_latency_us
+
+    assert wake_latency_us(text) == value
