@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 
 import numpy as np
@@ -15,6 +14,7 @@ from sparc_quad.cli.args import SIM_DURATION_MAX_S, add_spin_option, lcm_url, ou
 from sparc_quad.cli.errors import BadInput
 from sparc_quad.cli.experiment import add_experiment_args, plant, script
 from sparc_quad.cli.signals import stop_on_signals
+from sparc_quad.jsonfmt import json_text
 from spine_module.messages import channels
 
 log = logging.getLogger("sparc_quad.cli.bench_robot")
@@ -79,14 +79,14 @@ def run(args: argparse.Namespace) -> int:
                    "latched": robot.latched, "achieved_rate_hz": rate, "rejected": port.rejected}
         if args.experiment == "static" and states:
             summary["k_hat_n_m"] = stiffness_from_states(states)
-        print(json.dumps(summary))
+        print(json_text(summary))
         if args.out is not None:
             with atomic_dir(args.out) as tmp:
                 arrays = {f"robot_{k}": v for k, v in robot.log.arrays().items()}
                 if states:
                     arrays.update(states_arrays(states))
                 np.savez(tmp / "bench_robot.npz", **arrays)
-                (tmp / "summary.json").write_text(json.dumps(summary, indent=2))
+                (tmp / "summary.json").write_text(json_text(summary, indent=2))
     finally:
         port.close()
     return stop.exit_code()

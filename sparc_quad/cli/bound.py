@@ -31,6 +31,7 @@ from sparc_quad.cli.errors import BadInput, bad_input
 from sparc_quad.cli.output import atomic_dir, moved
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
+from sparc_quad.jsonfmt import json_text
 from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES, engine_error
 from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
 from sparc_quad.sim.imu import ImuConfig
@@ -270,7 +271,7 @@ def run(args: argparse.Namespace) -> int:
     summary = {k: m.get(k) for k in ("fell", "fall_time_s", "fall_reason", "speed_m_s", "cot_pos_total",
                                       "cot_abs_total", "stride_frequency_hz", "stride_length_m",
                                       "peak_spine_torque_nm", "window_ok")}
-    print(json.dumps(summary, indent=2, default=float))
+    print(json_text(summary, indent=2))
     if not m.get("window_ok", False):
         print(f"warning: {m.get('warning', 'steady window too short')} (metrics.json has window_ok: false)")
     warning = speed_warning(m, getattr(cfg.gait, "speed_m_s", None))

@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import numpy as np
@@ -14,6 +13,7 @@ import numpy as np
 from sparc_quad.cli.args import WALL_DURATION_MAX_S, in_range, lcm_url, regex
 from sparc_quad.cli.errors import BadInput
 from sparc_quad.cli.signals import stop_on_signals
+from sparc_quad.jsonfmt import json_text
 from spine_module.messages import channels
 
 
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
 
     def on_message(channel: str, data: bytes) -> None:
         seen[0] += 1
-        print(json.dumps(echo_line(channel, data), default=str), flush=True)
+        print(json_text(echo_line(channel, data), default=str), flush=True)
 
     lc.subscribe(args.channels, on_message)
     deadline = time.monotonic() + args.timeout if args.timeout > 0 else None

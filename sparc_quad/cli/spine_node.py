@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import logging
 import signal
 from collections.abc import Iterator
@@ -33,6 +32,7 @@ from sparc_quad.cli.args import (
 from sparc_quad.cli.errors import BadInput
 from sparc_quad.cli.experiment import add_experiment_args, plant, script
 from sparc_quad.cli.signals import stop_on_signals
+from sparc_quad.jsonfmt import json_text
 from spine_module import params as P
 from spine_module.buses import registry
 from spine_module.buses.base import MotorBusError
@@ -192,11 +192,11 @@ def run(args: argparse.Namespace) -> int:
                # messages superseded by a newer one before the node looked (a flood shows here)
                "dropped": {**io.inbox.dropped, **({"SPARC_MOTOR_FEEDBACK": bus.dropped}
                                                   if hasattr(bus, "dropped") else {})}}
-    print(json.dumps(summary))
+    print(json_text(summary))
     if args.summary is not None:
         try:
             args.summary.parent.mkdir(parents=True, exist_ok=True)
-            args.summary.write_text(json.dumps(summary, indent=2))
+            args.summary.write_text(json_text(summary, indent=2))
         except OSError as exc:  # checked at start; it changed during the run (the summary is printed above)
             raise BadInput(f"--summary {args.summary}: {exc.strerror or exc}") from exc
     return stop.exit_code()
@@ -212,5 +212,5 @@ def _run_inprocess(args: argparse.Namespace) -> int:
     out = {"ticks": robot.k, "final_x": [float(v) for v in states[-1].x] if states else None}
     if args.experiment == "static" and states:
         out["k_hat_n_m"] = stiffness_from_states(states)
-    print(json.dumps(out))
+    print(json_text(out))
     return 0

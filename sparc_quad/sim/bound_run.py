@@ -8,7 +8,6 @@ into metrics.json, a CSV time series and PNG plots.
 from __future__ import annotations
 
 import collections
-import json
 import struct
 import time
 from collections.abc import Callable
@@ -20,6 +19,7 @@ import numpy as np
 from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
+from sparc_quad.jsonfmt import json_text
 from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
@@ -408,7 +408,7 @@ def write_outputs(result: BoundResult, out: Path, plots: bool = True) -> list[Pa
     metrics = dict(result.metrics)
     metrics["config"] = config_dict(result.config)
     p = out / "metrics.json"
-    p.write_text(json.dumps(metrics, indent=2, default=float) + "\n")
+    p.write_text(json_text(metrics, indent=2) + "\n")  # undefined metrics (NaN) as null
     paths.append(p)
     p = out / "timeseries.csv"
     np.savetxt(p, result.series, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.9g")

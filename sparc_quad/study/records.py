@@ -13,13 +13,14 @@ import functools
 import hashlib
 import io
 import json
-import math
 import os
 import subprocess
 import tempfile
 from collections.abc import Iterable
 from importlib import metadata
 from pathlib import Path
+
+from sparc_quad.jsonfmt import jsonable
 
 ROOT = Path(__file__).resolve().parents[2]
 # package folders whose sources a trial result depends on, and the ones under them that it does not
@@ -127,19 +128,6 @@ def atomic_write_text(path: Path, text: str) -> None:
         except FileNotFoundError:
             pass
         raise
-
-
-def jsonable(x):
-    """Records are strict JSON: NaN/inf become null, numpy scalars plain numbers."""
-    if isinstance(x, dict):
-        return {str(k): jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [jsonable(v) for v in x]
-    if hasattr(x, "tolist"):  # numpy scalars and arrays
-        return jsonable(x.tolist())
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
 
 
 def write_record(trials_dir: Path, record: dict) -> Path:
