@@ -45,6 +45,9 @@ class SpineData:
         self.J = np.zeros((3, model.nv))  # task Jacobian, column 0 (q1) is zero by construction
         self.J_act = self.J[:, 1:]  # view: the actuated columns
         self.jdot_qdot = np.zeros(3)
+        # the dynamics model with gravity g - a: RNEA of a base whose origin accelerates at a
+        # (SpineModel.rnea)
+        self.moving_model = model.copy()
         self.x = np.zeros(3)
         self.dx = np.zeros(3)
 
@@ -117,9 +120,21 @@ class SpineModel:
         raise ValueError(f"inverse kinematics did not converge for x={x}")
 
     # --- dynamics from RNEA passes (the paper's approach) ---------------------------------------------
-    def rnea(self, data: SpineData, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-        """Joint torques M(q) ddq + C(q, dq) dq + g(q), N*m, one RNEA pass."""
-        return pin.rnea(self.model, data.dyn, q, dq, ddq)
+    def rnea(self, data: SpineData, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
+             base_accel: np.ndarray | None = None) -> np.ndarray:
+        """Joint torques M(q) ddq + C(q, dq) dq + g(q), N*m, one RNEA pass.
+
+        `base_accel`: linear acceleration of the base joint's origin (q1's), m/s^2, in the base body's frame
+        (the hind body), gravity not included; None: a fixed origin (the paper's model). A uniformly
+        accelerating base is the same as gravity g - a: the pass runs on `data.moving_model`, whose gravity
+        is set to g - R a (R: the base body's orientation at q)."""
+        if base_accel is None:
+            return pin.rnea(self.model, data.dyn, q, dq, ddq)
+        pin.forwardKinematics(self.model, data.dyn, q)
+        moving = data.moving_model
+        moving.gravity.linear = self.model.gravity.linear - data.dyn.oMi[1].rotation @ np.asarray(base_accel,
+                                                                                                  dtype=float)
+        return pin.rnea(moving, data.dyn, q, dq, ddq)
 
     def gravity(self, data: SpineData, q: np.ndarray) -> np.ndarray:
         """g(q) = RNEA(q, 0, 0)."""

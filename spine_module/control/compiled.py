@@ -18,7 +18,8 @@ from spine_module.control import kernel
 register_jitable(kernel.inertia_apply)  # the step calls it: compiled code may call it, Python still can
 
 # one signature: C-contiguous float64 vectors; anything else raises TypeError and the caller falls back
-SIGNATURE = "int64(float64[::1], float64[::1], float64[::1], float64, float64[::1], boolean[::1])"
+SIGNATURE = ("int64(float64[::1], float64[::1], float64[::1], float64, float64[::1], float64[::1], "
+             "boolean[::1])")
 
 spine_step: Callable[..., int] = njit(SIGNATURE, cache=True, nogil=True,
                                       error_model="numpy")(kernel.spine_step)

@@ -4,7 +4,9 @@ tau = M J†(ẍ_d − J̇q̇) + Jᵀ(D(ẋ_d − ẋ) + K(x_d − x)) + C q̇ +
 
 M J† a + C q̇ + g is evaluated as one RNEA pass at the desired joint acceleration
 ddq* = [q̈1, J†(ẍ_d − J̇q̇)]: mathematically the same as forming M and C, without building them. The
-measured torso acceleration q̈1 enters ddq*, so torso pitching is compensated on a robot (0 on the bench).
+measured torso acceleration q̈1 enters ddq*, so torso pitching is compensated on a robot (0 on the bench);
+the base joint origin's linear acceleration a (hind-body frame, from the torso estimate; 0 in the paper's
+law, whose base joint has a fixed origin) enters as gravity g - a.
 J† = Jᵀ(JJᵀ + λ²I)⁻¹ is the damped least-squares pseudo-inverse; its 3x3 solve is `solve3` (no scipy on the
 robot: numpy.linalg.solve would cost about 5x LAPACK's gesv on a 3x3 through its call overhead).
 """
@@ -52,8 +54,11 @@ class ImpedanceController(TaskController):
         self._friction_enabled = bool(value)
         self._ctrl[kn.C_FRICTION_ON] = 1.0 if (value and self.friction is not None) else 0.0
 
-    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
-        """The pinocchio path: the reference the compiled kernel is checked against, and its fallback."""
+    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0,
+                       base_accel: np.ndarray | None = None) -> ControlOutput:
+        """The pinocchio path: the reference the compiled kernel is checked against, and its fallback.
+        A non-zero `base_accel` (hind-body frame, m/s^2) runs the RNEA with gravity g - a (`SpineModel.rnea`);
+        None or zeros the fixed-origin RNEA, unchanged."""
         try:
             model, data = self.model, self.data
             model.update_kinematics(data, q, dq)
@@ -66,10 +71,12 @@ class ImpedanceController(TaskController):
             np.matmul(J.T, y, out=self._ddq_act)
             self._ddq[0] = ddq1
             tau = self._tau_full
-            tau[:] = model.rnea(data, q, dq, self._ddq)
+            moving = base_accel is not None and any(
+                v != 0.0 for v in np.asarray(base_accel, dtype=float).reshape(3).tolist())
+            tau[:] = model.rnea(data, q, dq, self._ddq, base_accel if moving else None)
             tau[1:] += J.T @ self._spring_damper()
             if self.friction_enabled and self.friction is not None:  # eq. (4)
                 tau[1:] += self.friction.torque(dq[1:])
         except Exception:  # wrong shapes or types: name the input, never raise in the loop
-            return self._fail(self.check_state(q, dq, ddq1) or "controller failed on this input")
-        return self._finish(tau, q, dq, ddq1)
+            return self._fail(self.check_state(q, dq, ddq1, base_accel) or "controller failed on this input")
+        return self._finish(tau, q, dq, ddq1, base_accel)

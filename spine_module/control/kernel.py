@@ -131,16 +131,20 @@ def pack_model(spine_model: Any, n_task: int = 3) -> np.ndarray:
     return prm
 
 
-def spine_step(prm: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq1: float, res: np.ndarray,
+def spine_step(prm: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq1: float, acc: np.ndarray, res: np.ndarray,
                sat: np.ndarray) -> int:
-    """One control step. q, dq: [q1..qn] (rad, rad/s); ddq1: torso acceleration (rad/s^2).
+    """One control step. q, dq: [q1..qn] (rad, rad/s); ddq1: torso acceleration (rad/s^2); acc (3): linear
+    acceleration of the base joint's origin in the base body's frame (the hind body), m/s^2, gravity not
+    included (zeros: the fixed-origin law). It enters as the base body's linear acceleration, which is
+    RNEA with gravity g - a (world frame) at the first body: the same as a prismatic base accelerating at a.
 
     Writes tau, tau_raw (N*m), x (m, m, rad), dx into `res` and the clamp flags into `sat`. Returns OK,
     NOT_FINITE (nothing written but scratch) or BAD_SHAPE.
     """
     n = int(prm[H_N])
     nk = int(prm[H_NK])
-    if q.shape[0] != n or dq.shape[0] != n or sat.shape[0] != nk or res.shape[0] < 2 * nk + 6 + 40 * (nk + 2):
+    if (q.shape[0] != n or dq.shape[0] != n or sat.shape[0] != nk or acc.shape[0] != 3
+            or res.shape[0] < 2 * nk + 6 + 40 * (nk + 2)):
         return BAD_SHAPE
     og, od, ok_, oe, oc = int(prm[H_GRAV]), int(prm[H_DYN]), int(prm[H_KIN]), int(prm[H_EE]), int(prm[H_CTRL])
     base = n - nk
@@ -331,6 +335,10 @@ def spine_step(prm: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq1: float, res:
             bbx = r00 * pbx + r10 * pby + r20 * pbz + ux * ddqi + wy * sw - wz * sy
             bby = r01 * pbx + r11 * pby + r21 * pbz + uy * ddqi + wz * sx - wx * sw
             bbz = r02 * pbx + r12 * pby + r22 * pbz + uz * ddqi + wx * sy - wy * sx
+            if i == 0:  # the base body: its origin's linear acceleration (its own frame) joins -gravity
+                aax += acc[0]
+                aay += acc[1]
+                aaz += acc[2]
             # f = I a + v x* (I v)
             la, lb, lc, na, nb, nc = inertia_apply(prm, o + 15, aax, aay, aaz, bbx, bby, bbz)
             hl0, hl1, hl2, ha0, ha1, ha2 = inertia_apply(prm, o + 15, vx, vy, vz, wx, wy, wz)

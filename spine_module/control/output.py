@@ -103,6 +103,7 @@ class TaskController:
         self._tau_max = self._ctrl[kn.C_TAU_MAX:kn.C_TAU_MAX + N_ACT]
         self._tau_max[:] = model.torque_limit_nm
         self._tau_min = -self._tau_max
+        self._zero_accel = np.zeros(3)  # the fixed-origin law's base acceleration (read only)
         self.set_gains(k, d)
 
     def set_gains(self, k: object | None = None, d: object | None = None) -> None:
@@ -139,26 +140,33 @@ class TaskController:
         self._f += self._derr
         return self._f
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
-        """One cycle: joint state (rad, rad/s, [q1..q4]) and torso acceleration q̈1 (rad/s²) → torques.
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0,
+             base_accel: np.ndarray | None = None) -> ControlOutput:
+        """One cycle: joint state (rad, rad/s, [q1..q4]), torso acceleration q̈1 (rad/s²) and the base
+        joint origin's linear acceleration in the hind-body frame (m/s², gravity not included; None: 0,
+        the paper's fixed-origin law) → torques. The compiled step takes `base_accel` as a C-contiguous
+        float64 array of 3 without a copy; anything else runs the reference path.
 
         Never raises: a bad input gives tau = 0, ok False and `error` naming it.
         """
         fn = self._compiled
         if fn is None:
-            return self.step_reference(q, dq, ddq1)
+            return self.step_reference(q, dq, ddq1, base_accel)
         try:
-            status = fn(self._prm, q, dq, ddq1, self._res, self.out.saturated)
+            status = fn(self._prm, q, dq, ddq1, self._zero_accel if base_accel is None else base_accel,
+                        self._res, self.out.saturated)
         except Exception:  # not C-contiguous float64 vectors: the reference path converts or names it
-            return self.step_reference(q, dq, ddq1)
+            return self.step_reference(q, dq, ddq1, base_accel)
         if status != kn.OK:
-            return self._fail(self.check_state(q, dq, ddq1) or "controller produced a non-finite torque")
+            return self._fail(self.check_state(q, dq, ddq1, base_accel)
+                              or "controller produced a non-finite torque")
         out = self.out
         out.ok = True
         out.error = None
         return out
 
-    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
+    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0,
+                       base_accel: np.ndarray | None = None) -> ControlOutput:
         raise NotImplementedError
 
     def _fail(self, reason: str) -> ControlOutput:
@@ -170,12 +178,14 @@ class TaskController:
         out.error = reason
         return out
 
-    def _finish(self, tau_full: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq1: float) -> ControlOutput:
+    def _finish(self, tau_full: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq1: float,
+                base_accel: np.ndarray | None = None) -> ControlOutput:
         out, data = self.out, self.data
         out.tau_raw[:] = tau_full[1:]
         # NaN/inf in any input propagates into the torque or the pose: one cheap check on the way out
         if not (math.isfinite(out.tau_raw.sum()) and math.isfinite(data.x.sum())):
-            return self._fail(self.check_state(q, dq, ddq1) or "controller produced a non-finite torque")
+            return self._fail(self.check_state(q, dq, ddq1, base_accel)
+                              or "controller produced a non-finite torque")
         np.clip(out.tau_raw, self._tau_min, self._tau_max, out=out.tau)
         np.not_equal(out.tau, out.tau_raw, out=out.saturated)
         out.x[:] = data.x
@@ -185,8 +195,9 @@ class TaskController:
         return out
 
     @staticmethod
-    def check_state(q: np.ndarray, dq: np.ndarray, ddq1: float) -> str | None:
-        """Name the first bad input, or None when q (4,), dq (4,) and ddq1 are finite."""
+    def check_state(q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel: object = None) -> str | None:
+        """Name the first bad input, or None when q (4,), dq (4,), ddq1 and base_accel (3,) (None: 0)
+        are finite."""
         q, dq = np.asarray(q), np.asarray(dq)
         if q.shape != (4,) or dq.shape != (4,):
             return f"state must be 4 joints, got q{q.shape} dq{dq.shape}"
@@ -196,4 +207,10 @@ class TaskController:
             return "dq is not finite"
         if not np.isfinite(ddq1):
             return "ddq1 is not finite"
+        if base_accel is not None:
+            a = np.asarray(base_accel)
+            if a.shape != (3,):
+                return f"base_accel must be 3 values, got {a.shape}"
+            if not np.all(np.isfinite(a)):
+                return "base_accel is not finite"
         return None

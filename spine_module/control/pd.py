@@ -12,8 +12,10 @@ from spine_module.control.output import ControlOutput, TaskController
 
 
 class TaskPDController(TaskController):
-    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0) -> ControlOutput:
-        """The pinocchio path (reference and fallback). ddq1 is accepted and unused."""
+    def step_reference(self, q: np.ndarray, dq: np.ndarray, ddq1: float = 0.0,
+                       base_accel: np.ndarray | None = None) -> ControlOutput:
+        """The pinocchio path (reference and fallback). ddq1 and base_accel are accepted and unused (no
+        dynamics in eq. 5)."""
         try:
             self.model.update_kinematics(self.data, q, dq)
             np.matmul(self.data.J.T, self._spring_damper(), out=self._tau_full)

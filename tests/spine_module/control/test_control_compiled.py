@@ -40,16 +40,18 @@ def _random_states(rng: np.random.Generator, n: int):
         yield q, dq, float(rng.normal(0.0, 50.0))
 
 
-def _compare(fast, ref, rng: np.random.Generator, n: int) -> int:
+def _compare(fast, ref, rng: np.random.Generator, n: int, moving: bool = False) -> int:
+    """`moving`: a random base acceleration too (hind-body frame, up to ~30 m/s^2)."""
     saturated = 0
     for q, dq, ddq1 in _random_states(rng, n):
         k, d = rng.uniform(0.0, 4000.0, 3), rng.uniform(0.0, 100.0, 3)
         x_d = P.X_EQUILIBRIUM + rng.uniform(-0.05, 0.05, 3)
         dx_d, ddx_d = rng.normal(0.0, 0.5, 3), rng.normal(0.0, 20.0, 3)
+        acc = rng.normal(0.0, 10.0, 3) if moving else None
         for c in (fast, ref):
             c.set_gains(k, d)
             c.set_target(x_d, dx_d, ddx_d)
-        a, b = fast.step(q, dq, ddq1), ref.step(q, dq, ddq1)
+        a, b = fast.step(q, dq, ddq1, acc), ref.step(q, dq, ddq1, acc)
         assert a.ok and b.ok
         for f in FIELDS:
             np.testing.assert_allclose(getattr(a, f), getattr(b, f), rtol=0, atol=TOL, err_msg=f)
@@ -66,6 +68,72 @@ def test_compiled_step_matches_pinocchio_on_random_states(kind: str) -> None:
     assert 0 < saturated < 1000  # both the clamp and the free case were exercised
 
 
+@pytest.mark.parametrize("kind", ["impedance", "impedance_no_friction", "pd"])
+def test_compiled_step_matches_pinocchio_with_a_moving_base(kind: str) -> None:
+    fast, ref = _pair(kind)
+    saturated = _compare(fast, ref, np.random.default_rng(12), 1000, moving=True)
+    assert 0 < saturated < 1000
+
+
+def _translating_base_model(model: SpineModel):
+    """The spine model behind a 3-D translation joint: an independent model of a base whose origin
+    accelerates (its RNEA takes the acceleration as the joint's, in the world frame)."""
+    import pinocchio as pin
+
+    tr = pin.buildModelFromXML(model.urdf, pin.JointModelTranslation())
+    tr.gravity.linear = model.model.gravity.linear.copy()
+    tr.armature[3:] = model.model.armature
+    return tr
+
+
+def test_base_acceleration_is_a_translating_base() -> None:
+    """RNEA with the base acceleration (SpineModel.rnea, i.e. gravity g - a) and both controller paths
+    equal pinocchio's RNEA of the model on a translation joint driven at that acceleration, whatever its
+    velocity (Galilean invariance): tau from the controllers minus their J^T F and friction terms."""
+    import pinocchio as pin
+
+    tr = _translating_base_model(MODEL)
+    dtr = tr.createData()
+    rng = np.random.default_rng(3)
+    fast, ref = _pair("impedance_no_friction")
+    for c in (fast, ref):
+        c.set_gains((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # tau = RNEA(q, dq, ddq*) alone
+    worst = 0.0
+    for q, dq, ddq1 in _random_states(rng, 300):
+        acc = rng.normal(0.0, 10.0, 3)  # hind-body frame
+        data = MODEL.create_data()
+        ddq = np.r_[ddq1, rng.normal(0.0, 5.0, 3)]
+        tau = MODEL.rnea(data, q, dq, ddq, acc).copy()
+        pin.forwardKinematics(MODEL.model, data.dyn, q)
+        acc_world = data.dyn.oMi[1].rotation @ acc
+        want = pin.rnea(tr, dtr, np.r_[rng.normal(0.0, 1.0, 3), q], np.r_[rng.normal(0.0, 3.0, 3), dq],
+                        np.r_[acc_world, ddq])[3:]
+        worst = max(worst, float(np.abs(tau - want).max()))
+        # the controllers: ddq* is their own; compare with the translating base at their ddq*
+        a, b = fast.step(q, dq, ddq1, acc), ref.step(q, dq, ddq1, acc)
+        assert a.ok and b.ok
+        ddq_star = np.r_[ddq1, ref._ddq_act]
+        want = pin.rnea(tr, dtr, np.r_[np.zeros(3), q], np.r_[np.zeros(3), dq],
+                        np.r_[acc_world, ddq_star])[4:]
+        np.testing.assert_allclose(a.tau_raw, want, rtol=0, atol=TOL)
+        np.testing.assert_allclose(b.tau_raw, want, rtol=0, atol=TOL)
+    assert worst < TOL
+    # and a base acceleration is not nothing: 1 m/s^2 forward changes the torque
+    q = P.Q_EQUILIBRIUM
+    moved = fast.step(q, np.zeros(4), 0.0, np.array([1.0, 0.0, 0.0])).tau_raw.copy()
+    assert np.abs(moved - fast.step(q, np.zeros(4), 0.0).tau_raw).max() > 1e-3
+
+
+@pytest.mark.parametrize("kind", ["impedance", "impedance_no_friction", "pd"])
+def test_zero_base_acceleration_is_the_fixed_origin_law_bit_for_bit(kind: str) -> None:
+    rng = np.random.default_rng(4)
+    fast, ref = _pair(kind)
+    for q, dq, ddq1 in _random_states(rng, 100):
+        for c in (fast, ref):
+            without = c.step(q, dq, ddq1).tau_raw.tolist()
+            assert c.step(q, dq, ddq1, np.zeros(3)).tau_raw.tolist() == without
+
+
 def test_compiled_step_is_generated_from_the_model() -> None:
     """A different spine (masses, lengths, armature, gravity) needs no change to the kernel."""
     links = tuple(dataclasses.replace(link, mass_kg=link.mass_kg * 1.7, length_m=link.length_m * 1.2)
@@ -75,6 +143,7 @@ def test_compiled_step_is_generated_from_the_model() -> None:
     for kind in ("impedance", "pd"):
         fast, ref = _pair(kind, model)
         _compare(fast, ref, np.random.default_rng(5), 200)
+        _compare(fast, ref, np.random.default_rng(6), 200, moving=True)
 
 
 def test_friction_switch_reaches_the_kernel() -> None:
@@ -89,26 +158,29 @@ def test_friction_switch_reaches_the_kernel() -> None:
 
 
 @pytest.mark.parametrize("kind", ["impedance", "pd"])
-@pytest.mark.parametrize("bad", ["q", "dq", "ddq1"])
+@pytest.mark.parametrize("bad", ["q", "dq", "ddq1", "base_accel"])
 def test_non_finite_input_gives_zero_torque_and_the_same_error(kind: str, bad: str) -> None:
     fast, ref = _pair(kind)
     for value in (np.nan, np.inf):
-        q, dq, ddq1 = P.Q_EQUILIBRIUM.copy(), np.zeros(4), 0.0
+        q, dq, ddq1, acc = P.Q_EQUILIBRIUM.copy(), np.zeros(4), 0.0, np.zeros(3)
         if bad == "q":
             q[2] = value
         elif bad == "dq":
             dq[3] = value
-        else:
+        elif bad == "ddq1":
             ddq1 = value
+        else:
+            acc[1] = value
         a_ok = fast.step(P.Q_EQUILIBRIUM, np.zeros(4)).ok
-        a = fast.step(q, dq, ddq1)
-        b = ref.step(q, dq, ddq1)
+        a = fast.step(q, dq, ddq1, acc)
+        b = ref.step(q, dq, ddq1, acc)
         assert a_ok
         assert (a.ok, a.error) == (b.ok, b.error)
         if not a.ok:
             assert not a.tau.any() and not a.saturated.any()
-        else:  # PD does not use ddq1
-            assert kind == "pd" and bad == "ddq1"
+            assert bad in a.error
+        else:  # PD does not use ddq1 or the base acceleration
+            assert kind == "pd" and bad in ("ddq1", "base_accel")
 
 
 @pytest.mark.parametrize("q, dq", [
