@@ -33,8 +33,9 @@ class FakeController:
     def set_target(self, x_d=None, dx_d=None, ddx_d=None):
         self.x_d = np.array(x_d, dtype=float)
 
-    def step(self, q, dq, ddq1=0.0):
+    def step(self, q, dq, ddq1=0.0, base_accel=None):
         self.steps += 1
+        self.last_input = (float(ddq1), None if base_accel is None else np.array(base_accel, dtype=float))
         if self.raises:
             raise RuntimeError("boom")
         return SimpleNamespace(tau=self.tau.copy() if self.ok else np.zeros(3), ok=self.ok,

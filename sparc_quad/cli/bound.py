@@ -35,6 +35,7 @@ from sparc_quad.jsonfmt import json_text
 from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES, engine_error
 from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
 from sparc_quad.sim.imu import ImuConfig
+from sparc_quad.sim.quadruped_world import BASE_MOTIONS
 from spine_module.messages import channels
 
 log = logging.getLogger(__name__)
@@ -97,6 +98,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="estimator q1 bias, rad")
     p.add_argument("--imu-delay", type=in_range(0, IMU_DELAY_MAX_STEPS, kind=int), default=imu.delay_steps,
                    help="estimator delay, 1 ms steps")
+    p.add_argument("--base-motion", choices=list(BASE_MOTIONS), default=None,
+                   help="what the torso estimate tells the spine law of the base's linear motion: fixed, "
+                        "nothing (the base joint's origin does not accelerate: the paper's law, eq. 3); "
+                        "constant-twist, the acceleration of the base joint's origin, m/s^2 in the hind-body "
+                        "frame, of a body moving at a constant body-frame twist (v, w): a = w x v, the "
+                        "assumption of the SPARC authors' law. Default: constant-twist where the run is the "
+                        "authors' (--gait sine --host spined-dog), fixed everywhere else")
     p.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run")
     p.add_argument("--host", choices=HOSTS, default=DEFAULT_HOST,
                    help="host robot (robots/sparc_<host>, robots/spined_dog)")
@@ -145,7 +153,8 @@ def config_from_args(args: argparse.Namespace):
         if args.stride is not None:
             gait = gait.with_stride(args.stride)
     imu = ImuConfig(q1_noise_rad=args.imu_noise, q1_bias_rad=args.imu_bias, delay_steps=args.imu_delay)
-    world = WorldConfig(host=args.host, engine=args.engine, slope_rad=args.slope, seed=args.seed, imu=imu)
+    world = WorldConfig(host=args.host, engine=args.engine, slope_rad=args.slope, seed=args.seed, imu=imu,
+                        base_motion=args.base_motion or "fixed")
     if args.gait == "sine" and args.host == "spined-dog":  # their robot: their whole run (authors_run)
         from dataclasses import replace
 
@@ -154,7 +163,8 @@ def config_from_args(args: argparse.Namespace):
         cfg = authors_run.bound_config(args.step_length, args.kx, args.duration, args.engine, **given)
         # the estimator options as given, else (all at their defaults) the exact, noise-free estimator
         world = replace(cfg.world, slope_rad=args.slope, seed=args.seed,
-                        imu=imu if imu != ImuConfig() else cfg.world.imu)
+                        imu=imu if imu != ImuConfig() else cfg.world.imu,
+                        base_motion=args.base_motion or cfg.world.base_motion)
         return replace(cfg, world=world,
                        spine_variant="rigid" if args.rigid_spine else args.spine_variant,
                        friction_compensation=args.friction_comp, stop_on_fall=False, realtime=args.realtime,

@@ -31,6 +31,11 @@ START_SPINE_Q_RAD = (-0.6, 1.2, -0.6)  # main_robot.py: the spine joints at t = 
 # the estimator the comparison with their run uses: no noise, one step late (their base pose is MuJoCo's
 # xquat, which mj_step leaves one step behind qpos)
 EXACT_IMU = ImuConfig(q1_noise_rad=0.0, dq1_noise_rad_s=0.0, ddq1_noise_rad_s2=0.0, delay_steps=1)
+# their law's h is a floating-base RNEA of the spine chain at the hind body's twist with zero (body-frame,
+# spatial) base acceleration: a body moving at a constant body twist (v, w), whose origin accelerates at
+# w x v. The estimator gives the spine law that acceleration (WorldConfig.base_motion); "fixed" is the
+# paper's law (docs/bounding.md, "Gait A as the authors run it")
+BASE_MOTION = "constant-twist"
 
 
 def spine_params() -> P.SpineParams:
@@ -72,9 +77,11 @@ def gains(k_x_n_m: float) -> SpineGains:
 
 
 def bound_config(step_length_m: float = 0.12, k_x_n_m: float = 800.0, duration_s: float = 20.0,
-                 engine: str = "mujoco", adapt_frequency: bool = True, **gait):
+                 engine: str = "mujoco", adapt_frequency: bool = True, base_motion: str = BASE_MOTION,
+                 **gait):
     """Their run through `run_bound`: the spined dog, gait A (authors variant), their spine schedule on
-    their clock with the spine-only model, a noise-free estimator one step late, their fall test left to
+    their clock with the spine-only model, a noise-free estimator one step late that gives the base's
+    acceleration as their law assumes it (`base_motion`, default "constant-twist"), their fall test left to
     `run_bound` (pitch or roll beyond its limits)."""
     from sparc_quad.sim import spined_dog as D
     from sparc_quad.sim.bound_run import BoundConfig
@@ -82,7 +89,8 @@ def bound_config(step_length_m: float = 0.12, k_x_n_m: float = 800.0, duration_s
 
     params = SineBoundParams(step_length_m=step_length_m, adapt_frequency=adapt_frequency, variant="authors",
                              start_spine_q_rad=START_SPINE_Q_RAD, start_base_height_m=D.BASE_HEIGHT_M, **gait)
-    world = WorldConfig(host="spined-dog", engine=engine, imu=EXACT_IMU, stand_height_m=params.hip_depth_m)
+    world = WorldConfig(host="spined-dog", engine=engine, imu=EXACT_IMU, stand_height_m=params.hip_depth_m,
+                        base_motion=base_motion)
     return BoundConfig(duration_s=duration_s, gait=params, world=world, spine=gains(k_x_n_m),
                        spine_schedule=schedule(), spine_rate_hz=AUTHORS_CONTROL_HZ, spine_timing="authors",
                        spine_params=spine_params(), spine_torso_accel=False, settle_s=0.0)

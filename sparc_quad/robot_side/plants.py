@@ -107,7 +107,13 @@ class QuadPlant:
         self._torso = TorsoState(ddq1_valid=True)
 
     def set(self, est, q_spine, dq_spine) -> None:
-        self._torso = TorsoState(q1=float(est.q1), dq1=float(est.dq1), ddq1=float(est.ddq1), ddq1_valid=True)
+        """The estimate as the torso state: q̈1 always valid; the base acceleration valid when the estimate
+        has one (`EstimatorOutput.base_accel`, WorldConfig.base_motion "constant-twist")."""
+        acc = getattr(est, "base_accel", None)
+        t = TorsoState(q1=float(est.q1), dq1=float(est.dq1), ddq1=float(est.ddq1), ddq1_valid=True)
+        if acc is not None:
+            t.base_accel, t.base_accel_valid = np.array(acc, dtype=float), True
+        self._torso = t
         self.q[:] = q_spine
         self.dq[:] = dq_spine
 

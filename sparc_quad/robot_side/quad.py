@@ -1,7 +1,8 @@
 """The quadruped sim as the robot side of the spine interface: the spine node computes the spine torques.
 
 `NodeSpine` is `run_bound`'s reference `SimSpine`: each `begin`/`finish` pair is one `RobotSide` tick
-with the quadruped's spine as the plant (torso state from the estimator emulation with q̈1 valid, the
+with the quadruped's spine as the plant (torso state from the estimator emulation with q̈1 valid and, when
+the world's `base_motion` gives one, the base acceleration valid; the
 run's impedance command every 10 ms, feedback as CyberGear frames, the node's answer through the motor
 model).
 
@@ -97,7 +98,7 @@ class NodeSpine:
             self.robot.command = self._command(self.gains.k, self.gains.d, (sch.x_d1_m, sch.z_d_m, 0.0))
             self._switched = True
         if not self._torso_accel:
-            est = EstimatorOutput(est.q1, est.dq1, 0.0)
+            est = EstimatorOutput(est.q1, est.dq1, 0.0, est.base_accel)
         self.plant.set(est, q_spine, dq_spine)
         self.robot.publish_tick()
         self._q[0] = est.q1

@@ -280,7 +280,7 @@ def run_bound(
                 # this step and the held ones up to the gait's next call, then their catch-up
                 k = min(1 + idle_ticks(), n - i)
                 s0 = s = i
-                for t1, q1, dq1, roll, yaw, q_sp1, dq_sp1, body in step_chunk(k, i):
+                for t1, q1, dq1, roll, yaw, q_sp1, dq_sp1, body, twist in step_chunk(k, i):
                     # the state after step s: its fall check, then (inside the chunk) step s + 1's catch-up
                     pf1 = q1 + sum(q_sp1)
                     if not fell:
@@ -292,7 +292,7 @@ def run_bound(
                     s += 1
                     if s == s0 + k:
                         break
-                    est = est_update(q1, dq1)
+                    est = est_update(q1, dq1, twist)
                     spine_begin(est, q_sp1, dq_sp1, t1)
                     leg_tau = gait_step(t1)
                     tau_s1 = spine_finish()

@@ -47,6 +47,14 @@ class WorldConfig:
     init_vx_m_s: float = 0.0  # initial forward velocity of the whole robot
     lock_spine: bool = False  # rigid spine: q2..q4 locked at the equilibrium arch by fixed constraints
     gravity_m_s2: float = P.GRAVITY_M_S2
+    # what the torso estimate says of the base's linear motion (BASE_MOTIONS): "fixed", none (the spine
+    # law's base joint has a fixed origin, the paper's law); "constant-twist", the base joint origin's
+    # acceleration a = w x v (hind-body frame, m/s^2) of a body whose body-frame twist (v, w) is constant:
+    # the assumption of the authors' law (zero spatial acceleration of their floating base)
+    base_motion: str = "fixed"
+
+
+BASE_MOTIONS = ("fixed", "constant-twist")
 
 
 @dataclass(slots=True)
@@ -54,14 +62,36 @@ class EstimatorOutput:
     q1: float
     dq1: float
     ddq1: float
+    base_accel: tuple[float, float, float] | None = None  # m/s^2, hind-body frame; None: not estimated
+
+
+def constant_twist_accel(twist, r=(0.0, 0.0, 0.0)) -> tuple[float, float, float]:
+    """Linear acceleration (body frame, m/s^2) of the point `r` (m, body frame) of a body whose body-frame
+    twist (vx, vy, vz, wx, wy, wz) of its frame origin (m/s, rad/s) is constant: zero spatial acceleration
+    leaves the classical one, w x v_r with v_r = v + w x r."""
+    vx, vy, vz, wx, wy, wz = twist
+    rx, ry, rz = r
+    if rx or ry or rz:
+        vx, vy, vz = vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx
+    return (wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx)
 
 
 class Estimator:
-    """Torso estimator emulation: truth -> noise, bias, delay, a first-order filter on q̈1. Seeded."""
+    """Torso estimator emulation: truth -> noise, bias, delay, a first-order filter on q̈1. Seeded.
+
+    `base_motion` "constant-twist" adds the base joint origin's acceleration under a constant body twist
+    (`constant_twist_accel` of the true twist given to `update`, at `base_point_m` in the hind-body frame;
+    noise-free, delayed with the rest); "fixed" leaves it out (`base_accel` None)."""
 
     NOISE_BLOCK = 1000  # steps of noise drawn at once
 
-    def __init__(self, cfg: ImuConfig, dt: float, rng: np.random.Generator):
+    def __init__(self, cfg: ImuConfig, dt: float, rng: np.random.Generator, base_motion: str = "fixed",
+                 base_point_m: tuple[float, float, float] = (0.0, 0.0, 0.0)):
+        if base_motion not in BASE_MOTIONS:
+            raise ValueError(f"base_motion must be one of {', '.join(BASE_MOTIONS)}, got {base_motion!r}")
+        self.base_motion = base_motion
+        self.needs_twist = base_motion == "constant-twist"
+        self.base_point_m = tuple(float(v) for v in base_point_m)
         self.cfg, self.dt, self.rng = cfg, dt, rng
         self._buf: collections.deque = collections.deque(maxlen=max(1, cfg.delay_steps + 1))
         self._prev_dq1: float | None = None
@@ -72,7 +102,9 @@ class Estimator:
             1.0 - math.exp(-2 * math.pi * cfg.accel_filter_hz * dt) if cfg.accel_filter_hz > 0 else 1.0
         )
 
-    def update(self, q1: float, dq1: float) -> EstimatorOutput:
+    def update(self, q1: float, dq1: float, twist=None) -> EstimatorOutput:
+        """This step's estimate from the true q1, dq1 and (constant-twist) the true body twist of the
+        hind-body frame origin (vx, vy, vz m/s, wx, wy, wz rad/s, hind-body frame)."""
         c = self.cfg
         k = self._k
         if k == len(self._noise):  # draw ahead in blocks: the same stream as three draws per step
@@ -85,7 +117,8 @@ class Estimator:
         raw_acc = 0.0 if self._prev_dq1 is None else (dq1 - self._prev_dq1) / self.dt
         self._prev_dq1 = dq1
         self._acc += self._alpha * (raw_acc - self._acc)
-        self._buf.append(EstimatorOutput(mq, mdq, self._acc + c.ddq1_noise_rad_s2 * n[2]))
+        acc = constant_twist_accel(twist, self.base_point_m) if self.needs_twist else None
+        self._buf.append(EstimatorOutput(mq, mdq, self._acc + c.ddq1_noise_rad_s2 * n[2], acc))
         return self._buf[0]
 
 
@@ -138,7 +171,10 @@ class QuadWorld(ABC):
         self.meta = meta = load_meta(self.files.meta)
         self.legs = meta["legs"]
         self.rng = np.random.default_rng(cfg.seed)
-        self.estimator = Estimator(cfg.imu, cfg.dt_s, self.rng)
+        # the spine model's base joint (q1) sits at the hind-body frame origin in every host
+        # (quadruped_urdf's layout, the spined dog's hind_body frame): `spine_base_in_hind_m` otherwise
+        self.estimator = Estimator(cfg.imu, cfg.dt_s, self.rng, cfg.base_motion,
+                                   tuple(meta.get("spine_base_in_hind_m", (0.0, 0.0, 0.0))))
         self.t = 0.0
         self.steps = 0
         self.physics_wall_s = 0.0  # wall time spent inside the engine's step (benches)
@@ -246,7 +282,18 @@ class QuadWorld(ABC):
 
     def estimate(self) -> EstimatorOutput:
         """The emulated torso estimator's output for the current step (call once per step)."""
-        return self.estimator.update(self.q1, self.dq1)
+        est = self.estimator
+        return est.update(self.q1, self.dq1, self.base_twist() if est.needs_twist else None)
+
+    def base_twist(self) -> tuple[float, ...]:
+        """The hind-body frame origin's twist in the hind-body frame: (vx, vy, vz) m/s, (wx, wy, wz)
+        rad/s, from base_vel, base_omega (world axes) and base_rot."""
+        r = self.base_rot
+        vx, vy, vz = self.base_vel
+        wx, wy, wz = self.base_omega
+        return (r[0] * vx + r[3] * vy + r[6] * vz, r[1] * vx + r[4] * vy + r[7] * vz,
+                r[2] * vx + r[5] * vy + r[8] * vz, r[0] * wx + r[3] * wy + r[6] * wz,
+                r[1] * wx + r[4] * wy + r[7] * wz, r[2] * wx + r[5] * wy + r[8] * wz)
 
     # ---- actuation -----------------------------------------------------------------------------------
     def set_torques(self, spine_tau, leg_tau: dict[str, tuple[float, float, float]]) -> None:
@@ -279,7 +326,8 @@ class QuadWorld(ABC):
     def step_chunk(self, k: int, row: int) -> list[tuple]:
         """Advance k steps with the torques last set (`set_torques`), keeping each new state as the state
         before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, yaw, q_spine, dq_spine,
-        body_contact), as `read` gives them. The state attributes are the last state's, read in full."""
+        body_contact, twist), as `read` gives them (twist: `base_twist`'s, None unless the estimator needs
+        it). The state attributes are the last state's, read in full."""
         raise NotImplementedError(f"the {self.engine} world does not step held chunks")
 
     def rewind(self, r: int) -> None:

@@ -93,6 +93,7 @@ class DirectSpine:
             self._limits = safety.TorqueLimits.from_config(lim)
         self._q = np.zeros(4)
         self._dq = np.zeros(4)
+        self._acc = np.zeros(3)  # the estimate's base acceleration, handed to the law as an array
         self._tau: list[float] = [0.0, 0.0, 0.0]
         # a clocked drive (`ScheduledDrive`) is filled and run only at its calls; its torque, held in
         # between, is kept here as floats
@@ -116,10 +117,15 @@ class DirectSpine:
             q[1:] = q_spine
             dq[1:] = dq_spine
             ddq1 = est.ddq1 if self._torso_accel else 0.0
+            base = est.base_accel  # None: the estimate has none (WorldConfig.base_motion "fixed")
+            acc = None
+            if base is not None:
+                acc = self._acc
+                acc[0], acc[1], acc[2] = base
             if tick is None:
-                tau = self.drive.step(q, dq, ddq1).tolist()
+                tau = self.drive.step(q, dq, ddq1, acc).tolist()
             else:
-                tau = self._held = self.drive.update(q, dq, ddq1).tolist()
+                tau = self._held = self.drive.update(q, dq, ddq1, acc).tolist()
         else:
             tau = self._held
         if self.actuated:  # what the node does to a controller's torque before the motors get it

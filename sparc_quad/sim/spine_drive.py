@@ -7,7 +7,9 @@
 - `rigid`: the spine locked by pybullet constraints (the world does it); no torque here.
 - `rigid-impedance`: the impedance controller at K = 1e4 N/m; its holding torque is actuator work.
 
-Every drive has `step(q, dq, ddq1) -> tau`, `x`, `dx` (task pose, rate), `ok`, `name`, `actuated`
+Every drive has `step(q, dq, ddq1, base_accel=None) -> tau` (base_accel: the base joint origin's linear
+acceleration in the hind-body frame, m/s^2, a float64 array of 3 or None for none; only the impedance law
+uses it), `x`, `dx` (task pose, rate), `ok`, `name`, `actuated`
 (whether its torque is charged as actuator work), `backend` (the controller's per-step code, None for no
 controller) and `energy_j` (stored in a passive element, J); each subclasses `SpineDrive`, which declares
 the optional clocked members. `ScheduledDrive` adds the authors' gain switch and a slower control rate
@@ -41,14 +43,14 @@ class SpineDrive:
 
     clocked = False
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel=None) -> np.ndarray:
         raise NotImplementedError
 
     def tick(self) -> bool:
         return True
 
-    def update(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
-        return self.step(q, dq, ddq1)
+    def update(self, q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel=None) -> np.ndarray:
+        return self.step(q, dq, ddq1, base_accel)
 
 
 class LockedSpine(SpineDrive):
@@ -66,7 +68,7 @@ class LockedSpine(SpineDrive):
         self.x, self.dx = self.kinematics.x, self.kinematics.dx
         self.ok = True
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel=None) -> np.ndarray:
         self.kinematics.update(q, dq)
         return self.tau
 
@@ -124,7 +126,7 @@ class PassiveSpine(SpineDrive):
         if x_d is not None:
             self.x_d[:] = x_d
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel=None) -> np.ndarray:
         self.kinematics.update(q, dq)
         e = self.err
         np.subtract(self.x_d, self.x, out=e)
@@ -168,8 +170,8 @@ class ImpedanceSpine(SpineDrive):
         if x_d is not None:
             self.ctrl.set_target(x_d=x_d)
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
-        self.ok = self.ctrl.step(q, dq, ddq1).ok
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel=None) -> np.ndarray:
+        self.ok = self.ctrl.step(q, dq, ddq1, base_accel).ok
         return self.tau
 
 
@@ -243,14 +245,14 @@ class ScheduledDrive(SpineDrive):
         self._k += 1
         return run
 
-    def update(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+    def update(self, q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel=None) -> np.ndarray:
         """Run the wrapped drive now (a step where `tick` said so); the torque it holds until the next."""
-        self.tau[:] = self.drive.step(q, dq, ddq1)
+        self.tau[:] = self.drive.step(q, dq, ddq1, base_accel)
         return self.tau
 
-    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float) -> np.ndarray:
+    def step(self, q: np.ndarray, dq: np.ndarray, ddq1: float, base_accel=None) -> np.ndarray:
         if self.tick():
-            self.update(q, dq, ddq1)
+            self.update(q, dq, ddq1, base_accel)
         return self.tau
 
 

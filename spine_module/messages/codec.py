@@ -92,7 +92,11 @@ TORSO_RANGES = {
     "ddq1": Range(-5000.0, 5000.0, "rad/s^2"),
     "quat": Range(-1.0 - 1e-6, 1.0 + 1e-6, ""),
     "omega": Range(-50.0, 50.0, "rad/s"),
+    "base_accel": Range(-500.0, 500.0, "m/s^2"),  # 50 g: beyond any landing of a legged robot
 }
+# checked only when their validity flag is set (else replaced by 0): ddq1 by ddq1_valid, base_accel by
+# base_accel_valid
+_TORSO_GATED = {"ddq1": "ddq1_valid", "base_accel": "base_accel_valid"}
 COMMAND_RANGES = {
     "x_d": [Range(0.0, _REACH, "m"), Range(-_REACH, _REACH, "m"), Range(-_PI, _PI, "rad")],
     "dx_d": [Range(-5.0, 5.0, "m/s"), Range(-5.0, 5.0, "m/s"), Range(-50.0, 50.0, "rad/s")],
@@ -264,11 +268,19 @@ def _us(stamp_s: float) -> int:
 # comparison, or the named error). Bytes that are not one well-formed message of the type go to the
 # `*_checked` path, whose `decode_raw` names the fingerprint or framing problem.
 _TORSO = _LAYOUTS[torso_state_t]
-_T_UTIME, _T_SEQ, _T_Q1, _T_DQ1, _T_DDQ1, _T_VALID, _T_QUAT, _T_OMEGA = (
-    _TORSO.index(f)[0] for f in ("utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega"))
-_TORSO_BOUNDS = (Bounds(torso_state_t, {**HEADER_RANGES, **{k: r for k, r in TORSO_RANGES.items()
-                                                             if k != "ddq1"}}),  # by ddq1_valid
-                 Bounds(torso_state_t, {**HEADER_RANGES, **TORSO_RANGES}))
+_T_UTIME, _T_SEQ, _T_Q1, _T_DQ1, _T_DDQ1, _T_VALID, _T_QUAT, _T_OMEGA, _T_BACC, _T_BVALID = (
+    _TORSO.index(f)[0] for f in ("utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega",
+                                 "base_accel", "base_accel_valid"))
+
+
+def _torso_bounds(ddq1_valid: bool, base_accel_valid: bool) -> Bounds:
+    on = {"ddq1_valid": ddq1_valid, "base_accel_valid": base_accel_valid}
+    return Bounds(torso_state_t, {**HEADER_RANGES, **{k: r for k, r in TORSO_RANGES.items()
+                                                      if k not in _TORSO_GATED or on[_TORSO_GATED[k]]}})
+
+
+# indexed by ddq1_valid + 2 * base_accel_valid
+_TORSO_BOUNDS = tuple(_torso_bounds(bool(i & 1), bool(i & 2)) for i in range(4))
 
 
 def _not_unit(channel: str, norm: float) -> MessageError:
@@ -281,7 +293,8 @@ def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState
     if vals is None:
         return decode_torso_checked(data, channel)
     valid = vals[_T_VALID] != 0
-    v = _TORSO_BOUNDS[valid].check(channel, vals)
+    base_valid = vals[_T_BVALID] != 0
+    v = _TORSO_BOUNDS[valid + 2 * base_valid].check(channel, vals)
     a = _T_QUAT
     w, x, y, z = vals[a:a + 4]
     norm = math.sqrt(w * w + x * x + y * y + z * z)
@@ -291,13 +304,16 @@ def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState
     quat /= norm
     return TorsoState(q1=vals[_T_Q1], dq1=vals[_T_DQ1], ddq1=vals[_T_DDQ1] if valid else 0.0,
                       ddq1_valid=valid, quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3],
-                      stamp_s=_s(vals[_T_UTIME]), seq=vals[_T_SEQ])
+                      stamp_s=_s(vals[_T_UTIME]), seq=vals[_T_SEQ],
+                      base_accel=v[_T_BACC:_T_BACC + 3] if base_valid else np.zeros(3),
+                      base_accel_valid=base_valid)
 
 
 def decode_torso_checked(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
     """`decode_torso` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, torso_state_t)
-    v = _TORSO_BOUNDS[bool(m.ddq1_valid)].check_message(channel, m)
+    base_valid = bool(m.base_accel_valid)
+    v = _TORSO_BOUNDS[bool(m.ddq1_valid) + 2 * base_valid].check_message(channel, m)
     w, x, y, z = m.quat
     norm = math.sqrt(w * w + x * x + y * y + z * z)
     if not 0.9 <= norm <= 1.1:
@@ -305,7 +321,9 @@ def decode_torso_checked(data: bytes, channel: str = channels.TORSO_STATE) -> To
     quat = v[_T_QUAT:_T_QUAT + 4]
     quat /= norm
     return TorsoState(q1=m.q1, dq1=m.dq1, ddq1=m.ddq1 if m.ddq1_valid else 0.0, ddq1_valid=bool(m.ddq1_valid),
-                      quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3], stamp_s=_s(m.utime), seq=m.seq)
+                      quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3], stamp_s=_s(m.utime), seq=m.seq,
+                      base_accel=v[_T_BACC:_T_BACC + 3] if base_valid else np.zeros(3),
+                      base_accel_valid=base_valid)
 
 
 _ALL_FAULTS = int(sum(f.value for f in Fault if f.value and (f.value & (f.value - 1)) == 0))
@@ -500,19 +518,19 @@ def _l(a, n: int = 3) -> list[float]:
 
 _TORSO_STRUCT = _TORSO.parts[0][0] if _TORSO.fixed and len(_TORSO.parts) == 1 else None
 if _TORSO_STRUCT is None or tuple(torso_state_t.__slots__) != (
-        "utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega"):
+        "utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega", "base_accel", "base_accel_valid"):
     raise RuntimeError("torso_state_t changed: update codec.encode_torso's fast path")
 
 
 def encode_torso(t: TorsoState) -> bytes:
-    """The robot's every tick: one struct call when quat and omega are 1-D arrays of 4 and 3 values;
-    anything else takes the general path (same bytes, or its error)."""
+    """The robot's every tick: one struct call when quat, omega and base_accel are 1-D arrays of 4, 3 and
+    3 values; anything else takes the general path (same bytes, or its error)."""
     try:
-        quat, omega = t.quat.tolist(), t.omega.tolist()
-        if len(quat) == 4 and len(omega) == 3:
+        quat, omega, acc = t.quat.tolist(), t.omega.tolist(), t.base_accel.tolist()
+        if len(quat) == 4 and len(omega) == 3 and len(acc) == 3:
             return _TORSO.fingerprint + _TORSO_STRUCT.pack(
                 _us(t.stamp_s), int(t.seq), float(t.q1), float(t.dq1), float(t.ddq1),
-                1 if t.ddq1_valid else 0, *quat, *omega)
+                1 if t.ddq1_valid else 0, *quat, *omega, *acc, 1 if t.base_accel_valid else 0)
     except (AttributeError, TypeError, struct.error):
         pass
     return encode_torso_checked(t)
@@ -524,6 +542,7 @@ def encode_torso_checked(t: TorsoState) -> bytes:
     m.utime, m.seq = _us(t.stamp_s), int(t.seq)
     m.q1, m.dq1, m.ddq1, m.ddq1_valid = float(t.q1), float(t.dq1), float(t.ddq1), bool(t.ddq1_valid)
     m.quat, m.omega = _l(t.quat, 4), _l(t.omega)
+    m.base_accel, m.base_accel_valid = _l(t.base_accel), bool(t.base_accel_valid)
     return _encode(m)
 
 

@@ -67,6 +67,10 @@ class TorsoState:
     omega: np.ndarray = field(default_factory=lambda: np.zeros(3))  # rad/s, body frame
     stamp_s: float = 0.0
     seq: int = 0
+    # linear acceleration of the spine model's base joint origin, hind-body frame, m/s^2, gravity not
+    # included; zeros unless base_accel_valid (the node then runs the fixed-origin law)
+    base_accel: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    base_accel_valid: bool = False
 
 
 @dataclass

@@ -1,7 +1,8 @@
 """The controllers the node runs, built once and shared by every mode and every bus backend.
 
 Each controller follows the spine-core API: `set_gains(k=(3,), d=(3,))`, `set_target(x_d, dx_d, ddx_d)`,
-`step(q (4,), dq (4,), ddq1) -> ControlOutput` with `tau (3,)`, `ok`, `error`, `x (3,)`, `dx (3,)`.
+`step(q (4,), dq (4,), ddq1, base_accel=None (3,)) -> ControlOutput` with `tau (3,)`, `ok`, `error`, `x (3,)`,
+`dx (3,)`.
 """
 
 from __future__ import annotations

@@ -318,6 +318,9 @@ class SpineNode:
             ctrl = self.ctrl.impedance
         torso = self.torso
         ddq1 = torso.ddq1 if torso is not None and torso.ddq1_valid else 0.0
+        # the base joint origin's acceleration (hind-body frame) when the estimator gives it, else 0: the
+        # paper's fixed-origin law (the decoder has refused a non-finite or out-of-range valid one)
+        base_accel = torso.base_accel if torso is not None and torso.base_accel_valid else _ZEROS3
         try:
             # gains, target and the friction switch change only with the command's numbers, the
             # soft-start scale or the controller: set them then, not every tick (a stream of equal
@@ -329,7 +332,7 @@ class SpineNode:
                     ctrl.friction_enabled = c.friction_compensation or default_gains
                 self._set_gains_and_target(ctrl, c, scale, default_gains, q, dq)
                 self._set_ctrl, self._set_for = ctrl, key
-            out = ctrl.step(q, dq, ddq1=ddq1)
+            out = ctrl.step(q, dq, ddq1=ddq1, base_accel=base_accel)
         except Exception as exc:  # the loop never dies; the controller promises not to raise anyway
             self._set_ctrl = None
             self._ratelog("controller", self.last_now or 0.0, logging.ERROR, "controller raised: %r", exc)

@@ -81,6 +81,14 @@ def _pitch_rate_roll_yaw(rot: tuple[float, ...], wx: float, wy: float, wz: float
             math.atan2(rot[3], rot[0]))
 
 
+def _body_twist(rot: tuple[float, ...], qv: list[float]) -> tuple[float, ...]:
+    """The free joint's twist in the body frame: (R^T v, w) from its qvel (v world axes, w body frame):
+    `base_twist`'s and the chunks' one formula."""
+    vx, vy, vz = qv[0], qv[1], qv[2]
+    return (rot[0] * vx + rot[3] * vy + rot[6] * vz, rot[1] * vx + rot[4] * vy + rot[7] * vz,
+            rot[2] * vx + rot[5] * vy + rot[8] * vz, qv[3], qv[4], qv[5])
+
+
 def _rotation(qw: float, qx: float, qy: float, qz: float) -> tuple[float, ...]:
     """Row-major rotation matrix (9 floats) of a unit quaternion."""
     return (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy),
@@ -219,6 +227,7 @@ class MujocoWorld(QuadWorld):
         qv = self._qvel.tolist()
         px, py, pz, qw, qx, qy, qz = qp[:7]
         vx, vy, vz, wx, wy, wz = qv[:6]
+        self._qv6 = qv[:6]
         rot = _rotation(qw, qx, qy, qz)
         self.base_pos = (px, py, pz)
         self.base_vel = (vx, vy, vz)  # the free joint's linear velocity: of the frame origin, world axes
@@ -241,6 +250,10 @@ class MujocoWorld(QuadWorld):
         self.q_spine = [jq[a], jq[b], jq[c]]
         self.dq_spine = [jdq[a], jdq[b], jdq[c]]
         self._read_contacts()
+
+    def base_twist(self) -> tuple[float, ...]:
+        """`QuadWorld.base_twist` from the free joint's qvel (its angular velocity is body-frame already)."""
+        return _body_twist(self.base_rot, self._qv6)
 
     def _read_contacts(self) -> None:
         """contact_force, other_contact, body_contact from the contacts the last step solved."""
@@ -355,12 +368,15 @@ class MujocoWorld(QuadWorld):
         states = []
         dt, held_q, held_dq = self.cfg.dt_s, self._held_q, self._held_dq
         vs = vb[row + 1:row + k + 1].tolist()
+        twist = self.estimator.needs_twist
         r = 0
         for qp in qb[row + 1:row + k + 1].tolist():
             qv = vs[r]
             r += 1
-            q1, dq1, roll, yaw = _pitch_rate_roll_yaw(_rotation(*qp[3:7]), *qv[3:6])  # as `read`
-            states.append(((steps0 + r) * dt, q1, dq1, roll, yaw, held_q(qp), held_dq(qv), False))
+            rot = _rotation(*qp[3:7])
+            q1, dq1, roll, yaw = _pitch_rate_roll_yaw(rot, *qv[3:6])  # as `read`
+            states.append(((steps0 + r) * dt, q1, dq1, roll, yaw, held_q(qp), held_dq(qv), False,
+                           _body_twist(rot, qv) if twist else None))
         return states
 
     def rewind(self, r: int) -> None:

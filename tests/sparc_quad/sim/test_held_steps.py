@@ -4,6 +4,7 @@ rows completed after the loop) against every step through the full path: the sam
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -49,16 +50,30 @@ def test_held_steps_bit_identical_study_trial(engine):
     _assert_same(*_both(cfg), chunks=engine == "mujoco")
 
 
-def test_held_steps_bit_identical_through_a_fall():
-    """The authors' run at L = 0.12 m falls; stop_on_fall ends both runs at the same step."""
-    held, full = _both(authors_run.bound_config(step_length_m=0.12, k_x_n_m=800.0, duration_s=5.0))
+@pytest.mark.parametrize("base_motion", ["constant-twist", "fixed"])
+def test_held_steps_bit_identical_through_a_fall(base_motion):
+    """The authors' run at L = 0.12 m falls; stop_on_fall ends both runs at the same step. Both base
+    motions: the constant-twist estimate needs each held state's twist (`step_chunk`'s)."""
+    cfg = authors_run.bound_config(step_length_m=0.12, k_x_n_m=800.0, duration_s=5.0, base_motion=base_motion)
+    held, full = _both(cfg)
     assert held.metrics["fell"]
     _assert_same(held, full)
 
 
+def test_held_steps_bit_identical_with_the_base_acceleration_at_l_0_08():
+    """L = 0.08 m, k_x 800 for 6 s (through the switch and the frequency adaptation), constant twist."""
+    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=6.0)
+    assert cfg.world.base_motion == "constant-twist"
+    held, full = _both(cfg)
+    assert not held.metrics["fell"]
+    _assert_same(held, full)
+    fixed = run_bound(replace(cfg, world=replace(cfg.world, base_motion="fixed")))
+    assert fixed.series.tobytes() != held.series.tobytes()  # the estimate's acceleration reached the law
+
+
 def _as_read(state: tuple) -> tuple:
     """A chunk's state with the spine's q and dq as lists, as `read` keeps them."""
-    return (*state[:5], list(state[5]), list(state[6]), state[7])
+    return (*state[:5], list(state[5]), list(state[6]), state[7], state[8])
 
 
 def _held_values(w) -> list[float]:
@@ -79,7 +94,8 @@ def _chunk_against_steps(a, b, k: int) -> np.ndarray:
     want = []
     for st in b.step_chunk(k, 0):
         a.step()
-        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact)
+        assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact,
+                                a.base_twist() if a.estimator.needs_twist else None)
         want.append(_held_values(a))
     got = b.held_rows(np.arange(1, k + 1))
     assert got.tolist() == want
@@ -91,7 +107,7 @@ def test_mujoco_chunk_keeps_what_read_gives():
     `read` give; `rewind` takes it back to a state exactly."""
     cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0)
     a, b, c = make_world(cfg.world), make_world(cfg.world), make_world(cfg.world)
-    assert b.can_rewind
+    assert b.can_rewind and b.estimator.needs_twist
     got = _chunk_against_steps(a, b, 200)
     assert any(got[:, HELD_STATE.index("contact_HL")] > 0.5)  # the feet touched: the flags were exercised
     assert any(got[:, HELD_STATE.index("contact_HL")] < 0.5)

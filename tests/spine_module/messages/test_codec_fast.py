@@ -33,6 +33,8 @@ def _torso(rng: np.random.Generator) -> bytes:
     quat /= np.linalg.norm(quat) * (1.0 if rng.random() < 0.8 else rng.uniform(0.7, 1.3))
     m.quat = [float(a) if rng.random() > 0.02 else float(rng.choice(BAD)) for a in quat]
     m.omega = [_num(rng, 20.0) for _ in range(3)]
+    m.base_accel = [_num(rng, 200.0) for _ in range(3)]
+    m.base_accel_valid = int(rng.choice([0, 1, 1, 3]))
     return m.encode()
 
 

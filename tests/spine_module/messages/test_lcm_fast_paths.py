@@ -101,7 +101,8 @@ def test_torso_encode_fast_path_equals_the_reference():
         t = TorsoState(q1=float(RNG.uniform(-3, 3)), dq1=float(RNG.uniform(-50, 50)),
                        ddq1=float(RNG.uniform(-5000, 5000)), ddq1_valid=bool(RNG.integers(0, 2)),
                        quat=q / np.linalg.norm(q), omega=RNG.uniform(-50, 50, 3),
-                       stamp_s=float(RNG.integers(0, 10**9)) * 1e-6, seq=int(RNG.integers(0, 10**9)))
+                       stamp_s=float(RNG.integers(0, 10**9)) * 1e-6, seq=int(RNG.integers(0, 10**9)),
+                       base_accel=RNG.uniform(-500, 500, 3), base_accel_valid=bool(RNG.integers(0, 2)))
         assert codec.encode_torso(t) == codec.encode_torso_checked(t)
     t.quat = [1.0, 0.0, 0.0, 0.0]  # a list: the general path
     assert codec.encode_torso(t) == codec.encode_torso_checked(t)

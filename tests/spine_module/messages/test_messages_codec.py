@@ -36,6 +36,11 @@ def test_round_trip_every_type():
                    omega=np.array([0.1, 0.2, 0.3]), stamp_s=2.5, seq=3)
     got = decode(channels.TORSO_STATE, codec.encode_torso(t))
     assert (got.q1, got.dq1, got.ddq1, got.ddq1_valid, got.seq, got.stamp_s) == (0.1, -0.2, 3.0, True, 3, 2.5)
+    assert got.base_accel.tolist() == [0.0, 0.0, 0.0] and not got.base_accel_valid
+    t.base_accel, t.base_accel_valid = np.array([1.5, -0.25, 9.0]), True
+    for fn in (codec.decode_torso, codec.decode_torso_checked):
+        got = fn(codec.encode_torso(t))
+        assert got.base_accel.tolist() == [1.5, -0.25, 9.0] and got.base_accel_valid
 
     c = SpineCommand(mode=Mode.PD, k=np.array([300.0, 1000.0, 15.0]), tau_ff=np.array([0.1, 0.2, -0.3]),
                      reset=True, friction_compensation=False, stamp_s=0.001, seq=9)
@@ -85,19 +90,34 @@ def test_bad_command_field_is_named(field, value, label, reason):
 @pytest.mark.parametrize(("field", "value", "label"), [
     ("q1", float("nan"), "q1"), ("dq1", float("-inf"), "dq1"), ("q1", 4.0, "q1"),
     ("omega", [0.0, 99.0, 0.0], "omega[1]"), ("quat", [0.5, 0.0, 0.0, 0.0], "quat"),
+    ("ddq1", float("nan"), "ddq1"), ("base_accel", [0.0, float("nan"), 0.0], "base_accel[1]"),
+    ("base_accel", [float("inf"), 0.0, 0.0], "base_accel[0]"),
+    ("base_accel", [0.0, 0.0, -501.0], "base_accel[2]"),
 ])
 def test_bad_torso_field_is_named(field, value, label):
+    """ddq1 and base_accel are checked when their flag says they are valid (as an estimator sends them)."""
     raw = codec.decode_raw(channels.TORSO_STATE, codec.encode_torso(TorsoState()))
+    raw.ddq1_valid = raw.base_accel_valid = True
     setattr(raw, field, value)
-    with pytest.raises(MessageError) as err:
-        decode(channels.TORSO_STATE, raw.encode())
-    assert err.value.field == label
+    for fn in (codec.decode_torso, codec.decode_torso_checked):
+        with pytest.raises(MessageError) as err:
+            fn(raw.encode())
+        assert err.value.field == label
 
 
 def test_torso_ddq1_ignored_when_invalid():
     raw = codec.decode_raw(channels.TORSO_STATE, codec.encode_torso(TorsoState()))
     raw.ddq1, raw.ddq1_valid = float("nan"), False
     assert decode(channels.TORSO_STATE, raw.encode()).ddq1 == 0.0
+
+
+def test_torso_base_accel_ignored_when_invalid():
+    """Not valid: whatever was sent (NaN here) is replaced by 0, as ddq1 is."""
+    raw = codec.decode_raw(channels.TORSO_STATE, codec.encode_torso(TorsoState()))
+    raw.base_accel, raw.base_accel_valid = [float("nan"), 1e9, 2.0], False
+    for fn in (codec.decode_torso, codec.decode_torso_checked):
+        got = fn(raw.encode())
+        assert got.base_accel.tolist() == [0.0, 0.0, 0.0] and not got.base_accel_valid
 
 
 @pytest.mark.parametrize(("field", "value", "label"), [

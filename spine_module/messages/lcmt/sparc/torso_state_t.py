@@ -13,11 +13,11 @@ class torso_state_t(object):
     The hind body is the spine's base: q1 is its pitch in the world, about +y.
     """
 
-    __slots__ = ["utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega"]
+    __slots__ = ["utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega", "base_accel", "base_accel_valid"]
 
-    __typenames__ = ["int64_t", "int64_t", "double", "double", "double", "boolean", "double", "double"]
+    __typenames__ = ["int64_t", "int64_t", "double", "double", "double", "boolean", "double", "double", "double", "boolean"]
 
-    __dimensions__ = [None, None, None, None, None, None, [4], [3]]
+    __dimensions__ = [None, None, None, None, None, None, [4], [3], [3], None]
 
     def __init__(self):
         self.utime = 0
@@ -68,6 +68,19 @@ class torso_state_t(object):
         LCM Type: double[3]
         """
 
+        self.base_accel = [ 0.0 for dim0 in range(3) ]
+        """
+        linear acceleration of the spine model's base joint origin (the q1 axis) in the hind-body frame,
+        m/s^2, gravity NOT included (only meaningful if base_accel_valid)
+        LCM Type: double[3]
+        """
+
+        self.base_accel_valid = False
+        """
+        false: the node uses base_accel = 0 (the paper's law: the base joint's origin is fixed)
+        LCM Type: boolean
+        """
+
 
     def encode(self):
         buf = BytesIO()
@@ -79,6 +92,8 @@ class torso_state_t(object):
         buf.write(struct.pack(">qqdddb", self.utime, self.seq, self.q1, self.dq1, self.ddq1, self.ddq1_valid))
         buf.write(struct.pack('>4d', *self.quat[:4]))
         buf.write(struct.pack('>3d', *self.omega[:3]))
+        buf.write(struct.pack('>3d', *self.base_accel[:3]))
+        buf.write(struct.pack(">b", self.base_accel_valid))
 
     @staticmethod
     def decode(data: bytes):
@@ -97,12 +112,14 @@ class torso_state_t(object):
         self.ddq1_valid = bool(struct.unpack('b', buf.read(1))[0])
         self.quat = struct.unpack('>4d', buf.read(32))
         self.omega = struct.unpack('>3d', buf.read(24))
+        self.base_accel = struct.unpack('>3d', buf.read(24))
+        self.base_accel_valid = bool(struct.unpack('b', buf.read(1))[0])
         return self
 
     @staticmethod
     def _get_hash_recursive(parents):
         if torso_state_t in parents: return 0
-        tmphash = (0x5e6c1b4b9540c3f) & 0xffffffffffffffff
+        tmphash = (0xef6d8b3e2fd5a2fb) & 0xffffffffffffffff
         tmphash  = (((tmphash<<1)&0xffffffffffffffff) + (tmphash>>63)) & 0xffffffffffffffff
         return tmphash
     _packed_fingerprint = None
