@@ -1,5 +1,6 @@
 """The base's linear motion in the torso estimate (WorldConfig.base_motion): the constant-twist
-acceleration a = w x v, each engine's body twist, and both spine paths (direct, node) handing it to the law."""
+acceleration a = w x v, each engine's body twist, and both spine paths (direct, node) handing it to the
+law."""
 
 from __future__ import annotations
 

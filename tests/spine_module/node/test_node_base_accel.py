@@ -11,8 +11,8 @@ from tests.node_harness import Harness
 
 
 def _torso(h: Harness, acc, valid: bool, ddq1: float = 0.0) -> TorsoState:
-    return TorsoState(ddq1=ddq1, ddq1_valid=True, base_accel=np.array(acc, dtype=float), base_accel_valid=valid,
-                      stamp_s=h.t, seq=h.k)
+    return TorsoState(ddq1=ddq1, ddq1_valid=True, base_accel=np.array(acc, dtype=float),
+                      base_accel_valid=valid, stamp_s=h.t, seq=h.k)
 
 
 def test_valid_base_accel_is_passed_invalid_is_zero():
