@@ -156,7 +156,8 @@ def test_broken_framing_is_named_and_cut_tail_is_tolerated(tmp_path, caplog):
     assert len(tr.t) == 60 and tr.meta["source"]["unread_tail_bytes"] > 0
     assert "not a whole event" in caplog.text
     bad = tmp_path / "sync.lcm"  # a garbled sync word early in the file: the rest is unreadable
-    bad.write_bytes(b[:200] + b"\xff" * 8 + b[208:])
+    at = b.index(b"\xed\xa1\xda\x01", 200)  # the first event header from byte 200 (messages' sizes vary)
+    bad.write_bytes(b[:at] + b"\xff" * 8 + b[at + 8:])
     with pytest.raises(TrialError, match=r"event \d+: invalid LCM event header at byte \d+"):
         load_lcm_log(bad)
 
