@@ -131,6 +131,7 @@ def test_node_summary_reports_the_period_histogram(tmp_path: Path) -> None:
 def test_wake_latency_request_is_written_and_held_until_released(tmp_path) -> None:
     qos = tmp_path / "cpu_dma_latency"
     qos.write_bytes(b"")
+    realtime.release_wake_latency()  # whatever an earlier test's command left (it should leave nothing)
     line = realtime.hold_wake_latency(7, path=str(qos))
     try:
         assert line.startswith("CPU wake latency held at <= 7 us")
@@ -141,11 +142,27 @@ def test_wake_latency_request_is_written_and_held_until_released(tmp_path) -> No
     assert realtime._wake_latency_fds == []
 
 
+def test_a_command_run_in_process_leaves_no_wake_latency_request(monkeypatch, tmp_path) -> None:
+    from sparc_quad.cli import main
+
+    qos = tmp_path / "cpu_dma_latency"
+    qos.write_bytes(b"")
+    real = realtime.hold_wake_latency
+    monkeypatch.setattr(realtime, "hold_wake_latency", lambda us: real(us, path=str(qos)))
+    realtime.release_wake_latency()
+    # no node answers on memq: the command ends with its "start spine-node first" error, after the request
+    rc = main(["bound", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.05", "--duration", "0.1",
+               "--no-plots", "--out", str(tmp_path / "b")])
+    assert rc == 2 and qos.read_bytes() == struct.pack("=i", 0)  # it was made ...
+    assert realtime._wake_latency_fds == []  # ... and ended with the command
+
+
 @pytest.mark.parametrize("make, why", [
     (lambda d: d / "absent", "does not exist"),
     (lambda d: d, "Is a directory"),
 ])
 def test_wake_latency_not_available_is_reported_not_raised(tmp_path, make, why) -> None:
+    realtime.release_wake_latency()
     line = realtime.hold_wake_latency(0, path=str(make(tmp_path)))
     assert line.startswith("CPU wake latency not requested") and why in line
     assert realtime._wake_latency_fds == []
