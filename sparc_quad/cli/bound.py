@@ -103,8 +103,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "nothing (the base joint's origin does not accelerate: the paper's law, eq. 3); "
                         "constant-twist, the acceleration of the base joint's origin, m/s^2 in the hind-body "
                         "frame, of a body moving at a constant body-frame twist (v, w): a = w x v, the "
-                        "assumption of the SPARC authors' law. Default: constant-twist where the run is the "
-                        "authors' (--gait sine --host spined-dog), fixed everywhere else")
+                        "assumption of the SPARC authors' law, from the hind body's true twist; "
+                        "authors-cvel, the same a = w x v of what the authors' released code feeds that law: "
+                        "MuJoCo's cvel "
+                        "of the hind body one step late (w its angular velocity, v the velocity of the point "
+                        "at the whole robot's centre of mass moving with it, both in world axes, read as if "
+                        "they were the body-frame twist: their reading, not a physically consistent body "
+                        "twist; pybullet computes the same quantity; needs --imu-delay >= 1 in MuJoCo). "
+                        "Default: authors-cvel where the run is the authors' (--gait sine --host "
+                        "spined-dog), fixed everywhere else")
     p.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run")
     p.add_argument("--host", choices=HOSTS, default=DEFAULT_HOST,
                    help="host robot (robots/sparc_<host>, robots/spined_dog)")

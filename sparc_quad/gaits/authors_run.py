@@ -33,9 +33,13 @@ START_SPINE_Q_RAD = (-0.6, 1.2, -0.6)  # main_robot.py: the spine joints at t = 
 EXACT_IMU = ImuConfig(q1_noise_rad=0.0, dq1_noise_rad_s=0.0, ddq1_noise_rad_s2=0.0, delay_steps=1)
 # their law's h is a floating-base RNEA of the spine chain at the hind body's twist with zero (body-frame,
 # spatial) base acceleration: a body moving at a constant body twist (v, w), whose origin accelerates at
-# w x v. The estimator gives the spine law that acceleration (WorldConfig.base_motion); "fixed" is the
-# paper's law (docs/bounding.md, "Gait A as the authors run it")
-BASE_MOTION = "constant-twist"
+# w x v. Their code feeds it MuJoCo's `cvel` of the hind body, read one step late: w the hind body's angular
+# velocity, v the velocity of the point at the whole robot's centre of mass moving with the hind body, both
+# in world axes, read as if body-frame. The estimator gives the spine law that a = w x v ("authors-cvel":
+# their reading, not a physically consistent body twist); "constant-twist" is the same law fed the hind
+# body's true body twist, "fixed" the paper's law (WorldConfig.base_motion; docs/bounding.md, "Gait A as the
+# authors run it")
+BASE_MOTION = "authors-cvel"
 
 
 def spine_params() -> P.SpineParams:
@@ -81,8 +85,9 @@ def bound_config(step_length_m: float = 0.12, k_x_n_m: float = 800.0, duration_s
                  **gait):
     """Their run through `run_bound`: the spined dog, gait A (authors variant), their spine schedule on
     their clock with the spine-only model, a noise-free estimator one step late that gives the base's
-    acceleration as their law assumes it (`base_motion`, default "constant-twist"), their fall test left to
-    `run_bound` (pitch or roll beyond its limits)."""
+    acceleration as their code feeds their law (`base_motion`, default "authors-cvel": a = w x v of the hind
+    body's `cvel` read as its body twist), their fall test left to `run_bound` (pitch or roll beyond its
+    limits)."""
     from sparc_quad.sim import spined_dog as D
     from sparc_quad.sim.bound_run import BoundConfig
     from sparc_quad.sim.quadruped_world import WorldConfig

@@ -50,11 +50,15 @@ class WorldConfig:
     # what the torso estimate says of the base's linear motion (BASE_MOTIONS): "fixed", none (the spine
     # law's base joint has a fixed origin, the paper's law); "constant-twist", the base joint origin's
     # acceleration a = w x v (hind-body frame, m/s^2) of a body whose body-frame twist (v, w) is constant:
-    # the assumption of the authors' law (zero spatial acceleration of their floating base)
+    # the assumption of the authors' law (zero spatial acceleration of their floating base); "authors-cvel",
+    # the same a = w x v of the twist the authors' released code feeds that law: MuJoCo's `cvel` of the hind
+    # body (w: its angular velocity, v: the velocity of the point at the whole robot's centre of mass moving
+    # with the hind body, both in world axes) read as if it were the hind body's body-frame twist, one step
+    # late as their code reads it (their reading, not a physically consistent body twist)
     base_motion: str = "fixed"
 
 
-BASE_MOTIONS = ("fixed", "constant-twist")
+BASE_MOTIONS = ("fixed", "constant-twist", "authors-cvel")
 
 
 @dataclass(slots=True)
@@ -81,16 +85,32 @@ class Estimator:
 
     `base_motion` "constant-twist" adds the base joint origin's acceleration under a constant body twist
     (`constant_twist_accel` of the true twist given to `update`, at `base_point_m` in the hind-body frame;
-    noise-free, delayed with the rest); "fixed" leaves it out (`base_accel` None)."""
+    noise-free, delayed with the rest); "authors-cvel" the same formula of the authors' twist
+    (`QuadWorld.authors_twist`: the hind body's `cvel`, world axes, read as body-frame); "fixed" leaves it out
+    (`base_accel` None).
+
+    `twist_lag_steps` (0 or 1): how many steps old the twist given to `update` already is. MuJoCo's `cvel`
+    after `mj_step` is the state before the step (one step behind `qpos`): given the step-k update, it is
+    state k - 1's, and the estimator files it under state k - 1 (and, at the first update, under state 0,
+    whose own it is after `mj_forward`), so that the estimate's base acceleration comes with the estimate's
+    delay like everything else. It needs `delay_steps` >= the lag."""
 
     NOISE_BLOCK = 1000  # steps of noise drawn at once
 
     def __init__(self, cfg: ImuConfig, dt: float, rng: np.random.Generator, base_motion: str = "fixed",
-                 base_point_m: tuple[float, float, float] = (0.0, 0.0, 0.0)):
+                 base_point_m: tuple[float, float, float] = (0.0, 0.0, 0.0), twist_lag_steps: int = 0):
         if base_motion not in BASE_MOTIONS:
             raise ValueError(f"base_motion must be one of {', '.join(BASE_MOTIONS)}, got {base_motion!r}")
+        if twist_lag_steps not in (0, 1):
+            raise ValueError(f"twist_lag_steps must be 0 or 1, got {twist_lag_steps!r}")
+        if twist_lag_steps > cfg.delay_steps:
+            raise ValueError(f"base_motion {base_motion!r} reads a twist {twist_lag_steps} step(s) late "
+                             f"(MuJoCo's cvel lags qpos by a step after mj_step): it needs the estimator's "
+                             f"delay_steps >= {twist_lag_steps}, got {cfg.delay_steps}")
         self.base_motion = base_motion
-        self.needs_twist = base_motion == "constant-twist"
+        self.needs_twist = base_motion != "fixed"
+        self.uses_authors_twist = base_motion == "authors-cvel"  # given `authors_twist`, not `base_twist`
+        self._lagged = twist_lag_steps == 1
         self.base_point_m = tuple(float(v) for v in base_point_m)
         self.cfg, self.dt, self.rng = cfg, dt, rng
         self._buf: collections.deque = collections.deque(maxlen=max(1, cfg.delay_steps + 1))
@@ -104,7 +124,8 @@ class Estimator:
 
     def update(self, q1: float, dq1: float, twist=None) -> EstimatorOutput:
         """This step's estimate from the true q1, dq1 and (constant-twist) the true body twist of the
-        hind-body frame origin (vx, vy, vz m/s, wx, wy, wz rad/s, hind-body frame)."""
+        hind-body frame origin (vx, vy, vz m/s, wx, wy, wz rad/s, hind-body frame) or (authors-cvel) the
+        authors' twist (`QuadWorld.authors_twist`, `twist_lag_steps` old)."""
         c = self.cfg
         k = self._k
         if k == len(self._noise):  # draw ahead in blocks: the same stream as three draws per step
@@ -118,8 +139,11 @@ class Estimator:
         self._prev_dq1 = dq1
         self._acc += self._alpha * (raw_acc - self._acc)
         acc = constant_twist_accel(twist, self.base_point_m) if self.needs_twist else None
-        self._buf.append(EstimatorOutput(mq, mdq, self._acc + c.ddq1_noise_rad_s2 * n[2], acc))
-        return self._buf[0]
+        buf = self._buf
+        if self._lagged and buf:  # the twist is the previous state's: it completes that state's entry
+            buf[-1].base_accel = acc  # (returned only from the next update on: delay_steps >= 1)
+        buf.append(EstimatorOutput(mq, mdq, self._acc + c.ddq1_noise_rad_s2 * n[2], acc))
+        return buf[0]
 
 
 def pitch_of(quat) -> float:
@@ -174,7 +198,8 @@ class QuadWorld(ABC):
         # the spine model's base joint (q1) sits at the hind-body frame origin in every host
         # (quadruped_urdf's layout, the spined dog's hind_body frame): `spine_base_in_hind_m` otherwise
         self.estimator = Estimator(cfg.imu, cfg.dt_s, self.rng, cfg.base_motion,
-                                   tuple(meta.get("spine_base_in_hind_m", (0.0, 0.0, 0.0))))
+                                   tuple(meta.get("spine_base_in_hind_m", (0.0, 0.0, 0.0))),
+                                   self.cvel_lag_steps if cfg.base_motion == "authors-cvel" else 0)
         self.t = 0.0
         self.steps = 0
         self.physics_wall_s = 0.0  # wall time spent inside the engine's step (benches)
@@ -283,7 +308,10 @@ class QuadWorld(ABC):
     def estimate(self) -> EstimatorOutput:
         """The emulated torso estimator's output for the current step (call once per step)."""
         est = self.estimator
-        return est.update(self.q1, self.dq1, self.base_twist() if est.needs_twist else None)
+        if not est.needs_twist:
+            return est.update(self.q1, self.dq1)
+        twist = self.authors_twist() if est.uses_authors_twist else self.base_twist()
+        return est.update(self.q1, self.dq1, twist)
 
     def base_twist(self) -> tuple[float, ...]:
         """The hind-body frame origin's twist in the hind-body frame: (vx, vy, vz) m/s, (wx, wy, wz)
@@ -294,6 +322,16 @@ class QuadWorld(ABC):
         return (r[0] * vx + r[3] * vy + r[6] * vz, r[1] * vx + r[4] * vy + r[7] * vz,
                 r[2] * vx + r[5] * vy + r[8] * vz, r[0] * wx + r[3] * wy + r[6] * wz,
                 r[1] * wx + r[4] * wy + r[7] * wz, r[2] * wx + r[5] * wy + r[8] * wz)
+
+    # how many steps old `authors_twist` is when read (MuJoCo: 1, its cvel after mj_step)
+    cvel_lag_steps = 0
+
+    def authors_twist(self) -> tuple[float, ...]:
+        """The twist the SPARC authors' released code feeds their spine law as the hind body's body-frame
+        twist: MuJoCo's `cvel` of the hind body, (v; w) = the velocity of the point at the whole robot's
+        centre of mass moving rigidly with the hind body and the hind body's angular velocity, both in
+        world axes (vx, vy, vz m/s, wx, wy, wz rad/s); `cvel_lag_steps` old."""
+        raise NotImplementedError(f"the {self.engine} world has no authors' twist")
 
     # ---- actuation -----------------------------------------------------------------------------------
     def set_torques(self, spine_tau, leg_tau: dict[str, tuple[float, float, float]]) -> None:
@@ -326,8 +364,9 @@ class QuadWorld(ABC):
     def step_chunk(self, k: int, row: int) -> list[tuple]:
         """Advance k steps with the torques last set (`set_torques`), keeping each new state as the state
         before steps row + 1 .. row + k; per new state (t, q1, dq1, roll, yaw, q_spine, dq_spine,
-        body_contact, twist), as `read` gives them (twist: `base_twist`'s, None unless the estimator needs
-        it). The state attributes are the last state's, read in full."""
+        body_contact, twist), as `read` gives them (twist: `base_twist`'s, or `authors_twist`'s under
+        "authors-cvel", as either reads at that state; None unless the estimator needs it). The state
+        attributes are the last state's, read in full."""
         raise NotImplementedError(f"the {self.engine} world does not step held chunks")
 
     def rewind(self, r: int) -> None:

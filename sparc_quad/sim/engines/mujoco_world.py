@@ -9,7 +9,9 @@ pybullet's URDF robots do without self-collision. Friction is the floor's (prior
 coefficient is `friction`, where pybullet multiplies the foot's and the ground's (friction squared).
 
 After `mj_step` the positions and velocities are the new state; the contacts are those the step solved
-(at its start), as pybullet's contact points after stepSimulation.
+(at its start), as pybullet's contact points after stepSimulation. So are the x-quantities (`xpos`,
+`xquat`, `cvel`): one step behind `qpos`, which is how the SPARC authors' code reads its base pose and twist
+(`authors_twist`, WorldConfig.base_motion "authors-cvel").
 """
 
 from __future__ import annotations
@@ -105,6 +107,7 @@ class MujocoWorld(QuadWorld):
     """One MuJoCo model and data with the spined quadruped standing on its four feet at t = 0."""
 
     engine = "mujoco"
+    cvel_lag_steps = 1  # `authors_twist` reads `cvel`, which mj_step leaves at the state before the step
 
     def __init__(self, cfg: WorldConfig | None = None, robots_dir: Path = ROBOTS_DIR):
         super().__init__(cfg, robots_dir)
@@ -171,6 +174,8 @@ class MujocoWorld(QuadWorld):
         # MjData's fixed-size arrays as numpy views, made once (each `d.qpos` builds a new view); they stay
         # valid for the life of `self.data`
         self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
+        self._cvel_base = self.data.cvel[base]  # the hind body's (rot; lin) at the robot's COM, world axes
+        self._chunk_cvel = self.estimator.uses_authors_twist  # step_chunk keeps each step's cvel
         self._ctrl_all = isinstance(self._ctrl_idx, slice) and self._ctrl.flags.c_contiguous
         self._pack_ctrl = struct.Struct(f"{m.nu}d").pack_into
         # chunked held steps (step_chunk): their states are kept raw (qpos, qvel, the foot sensors) and
@@ -193,6 +198,7 @@ class MujocoWorld(QuadWorld):
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
         if cfg.init_vx_m_s:
             self.data.qvel[0] = cfg.init_vx_m_s
+            mujoco.mj_comVel(self.model, self.data)  # cvel of that state, as mj_forward left it at rest
             self.read()
 
     # ---- set-up ---------------------------------------------------------------------------------------
@@ -254,6 +260,12 @@ class MujocoWorld(QuadWorld):
     def base_twist(self) -> tuple[float, ...]:
         """`QuadWorld.base_twist` from the free joint's qvel (its angular velocity is body-frame already)."""
         return _body_twist(self.base_rot, self._qv6)
+
+    def authors_twist(self) -> tuple[float, ...]:
+        """`QuadWorld.authors_twist`: `cvel` of the hind body as it is now, the state before the last step
+        (the first state's after `reset_stand`'s mj_forward), reordered (lin; rot)."""
+        wx, wy, wz, vx, vy, vz = self._cvel_base.tolist()
+        return (vx, vy, vz, wx, wy, wz)
 
     def _read_contacts(self) -> None:
         """contact_force, other_contact, body_contact from the contacts the last step solved."""
@@ -342,6 +354,7 @@ class MujocoWorld(QuadWorld):
         self._qb = np.zeros((n_rows, self.model.nq))
         self._vb = np.zeros((n_rows, self.model.nv))
         self._sb = np.zeros((n_rows, self.model.nsensordata))
+        self._cb = np.zeros((n_rows, 6)) if self._chunk_cvel else None
 
     def step_chunk(self, k: int, row: int) -> list[tuple]:
         """`QuadWorld.step_chunk` as k mj_steps back to back, each new state's qpos, qvel and foot sensors
@@ -354,13 +367,25 @@ class MujocoWorld(QuadWorld):
         steps0 = self.steps
         self._chunk = (row, steps0)
         wall = 0.0
-        for j in range(row + 1, row + k + 1):
-            t0 = clock()
-            step(m, d)
-            wall += clock() - t0
-            qb[j] = qpos
-            vb[j] = qvel
-            sb[j] = sens
+        cb = self._cb
+        if cb is None:
+            for j in range(row + 1, row + k + 1):
+                t0 = clock()
+                step(m, d)
+                wall += clock() - t0
+                qb[j] = qpos
+                vb[j] = qvel
+                sb[j] = sens
+        else:  # the authors' twist: each new state's cvel (that of the state before it) as well
+            cvel = self._cvel_base
+            for j in range(row + 1, row + k + 1):
+                t0 = clock()
+                step(m, d)
+                wall += clock() - t0
+                qb[j] = qpos
+                vb[j] = qvel
+                sb[j] = sens
+                cb[j] = cvel
         self.physics_wall_s += wall
         self.steps = steps0 + k
         self.t = self.steps * self.cfg.dt_s
@@ -369,14 +394,19 @@ class MujocoWorld(QuadWorld):
         dt, held_q, held_dq = self.cfg.dt_s, self._held_q, self._held_dq
         vs = vb[row + 1:row + k + 1].tolist()
         twist = self.estimator.needs_twist
+        cs = cb[row + 1:row + k + 1].tolist() if cb is not None else None
         r = 0
         for qp in qb[row + 1:row + k + 1].tolist():
             qv = vs[r]
-            r += 1
             rot = _rotation(*qp[3:7])
             q1, dq1, roll, yaw = _pitch_rate_roll_yaw(rot, *qv[3:6])  # as `read`
-            states.append(((steps0 + r) * dt, q1, dq1, roll, yaw, held_q(qp), held_dq(qv), False,
-                           _body_twist(rot, qv) if twist else None))
+            if cs is not None:  # as `authors_twist`
+                wx, wy, wz, vx, vy, vz = cs[r]
+                tw = (vx, vy, vz, wx, wy, wz)
+            else:
+                tw = _body_twist(rot, qv) if twist else None
+            r += 1
+            states.append(((steps0 + r) * dt, q1, dq1, roll, yaw, held_q(qp), held_dq(qv), False, tw))
         return states
 
     def rewind(self, r: int) -> None:

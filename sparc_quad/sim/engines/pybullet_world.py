@@ -94,10 +94,10 @@ class PybulletWorld(QuadWorld):
         dyn = pb.getDynamicsInfo(self.robot, -1, physicsClientId=c)
         self._base_inertial_pos = np.array(dyn[3])
         self._base_inertial_xyz = tuple(float(v) for v in dyn[3])  # plain floats for the per-step read
-        self.total_mass = sum(
-            pb.getDynamicsInfo(self.robot, i, physicsClientId=c)[0]
-            for i in range(-1, pb.getNumJoints(self.robot, physicsClientId=c))
-        )
+        self._link_mass = [pb.getDynamicsInfo(self.robot, i, physicsClientId=c)[0]
+                           for i in range(-1, pb.getNumJoints(self.robot, physicsClientId=c))]
+        self.total_mass = sum(self._link_mass)
+        self._links = list(range(pb.getNumJoints(self.robot, physicsClientId=c)))
         self.reset_stand(pitch_rad=-cfg.slope_rad + cfg.init_pitch_rad)
         if cfg.init_vx_m_s:
             pb.resetBaseVelocity(self.robot, [cfg.init_vx_m_s, 0, 0], [0, 0, 0], physicsClientId=c)
@@ -209,6 +209,26 @@ class PybulletWorld(QuadWorld):
                 self.body_contact |= cp[3] in self.body_links
             else:
                 force[key] += cp[9]
+
+    def authors_twist(self) -> tuple[float, ...]:
+        """`QuadWorld.authors_twist` of the present state (`cvel_lag_steps` 0: the estimator's delay makes it
+        the previous step's, as MuJoCo's `cvel` is): the velocity of the point at the whole robot's centre of
+        mass moving rigidly with the hind body, v_origin + w x (com - origin), and w, world axes."""
+        c, robot = self.client, self.robot
+        mass = self._link_mass
+        bx, by, bz = pb.getBasePositionAndOrientation(robot, physicsClientId=c)[0]  # the base's COM
+        cx, cy, cz = mass[0] * bx, mass[0] * by, mass[0] * bz
+        for k, st in enumerate(pb.getLinkStates(robot, self._links, computeForwardKinematics=1,
+                                                physicsClientId=c), start=1):
+            px, py, pz = st[0]  # the link's COM
+            mk = mass[k]
+            cx, cy, cz = cx + mk * px, cy + mk * py, cz + mk * pz
+        total = self.total_mass
+        ox, oy, oz = self.base_pos
+        rx, ry, rz = cx / total - ox, cy / total - oy, cz / total - oz
+        vx, vy, vz = self.base_vel
+        wx, wy, wz = self.base_omega
+        return (vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx, wx, wy, wz)
 
     def step(self) -> None:
         tau = self._tau if not self._pad else self._tau[:self.n_engine_joints]

@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from sparc_quad.robot_side.quad import NodeSpine
+from sparc_quad.sim.imu import ImuConfig
 from sparc_quad.sim.quadruped_world import (
     BASE_MOTIONS,
+    Estimator,
     EstimatorOutput,
     QuadWorld,
     WorldConfig,
@@ -25,6 +27,7 @@ from spine_module.control import ImpedanceController
 from spine_module.model import SpineModel
 
 Q_EQ = P.Q_EQUILIBRIUM[1:].tolist()
+EXACT = ImuConfig(q1_noise_rad=0.0, dq1_noise_rad_s=0.0, ddq1_noise_rad_s2=0.0, delay_steps=1)
 ACC = (1.25, 0.0, -3.5)
 
 
@@ -61,10 +64,95 @@ def test_world_estimate_carries_the_constant_twist_acceleration(engine):
 
 
 def test_base_motion_is_checked():
-    assert BASE_MOTIONS == ("fixed", "constant-twist") and WorldConfig().base_motion == "fixed"
+    assert BASE_MOTIONS == ("fixed", "constant-twist", "authors-cvel")
+    assert WorldConfig().base_motion == "fixed"
     pytest.importorskip("mujoco")
     with pytest.raises(ValueError, match="base_motion"):
         make_world(WorldConfig(host="spined-dog", engine="mujoco", base_motion="sliding"))
+    # MuJoCo's cvel is one step behind qpos after mj_step: the authors' reading needs a delay of a step
+    cfg = WorldConfig(host="spined-dog", engine="mujoco", base_motion="authors-cvel")
+    with pytest.raises(ValueError, match="delay_steps >= 1"):
+        make_world(replace(cfg, imu=replace(cfg.imu, delay_steps=0)))
+
+
+@pytest.mark.parametrize("delay", [1, 2, 3])
+def test_a_lagged_twist_is_filed_under_its_own_state(delay):
+    """A twist one step old (MuJoCo's cvel: at update k the state k - 1's, at update 0 state 0's) comes out
+    with the estimate's delay, as a present-state twist does: at update k the twist of state k - delay."""
+    twists = [(0.5 + 0.1 * k, 0.0, 0.02 * k, 0.0, 1.0 - 0.05 * k, 0.01 * k) for k in range(12)]
+    imu = ImuConfig(q1_noise_rad=0.0, dq1_noise_rad_s=0.0, ddq1_noise_rad_s2=0.0, delay_steps=delay)
+    lagged = Estimator(imu, 1e-3, np.random.default_rng(0), "authors-cvel", twist_lag_steps=1)
+    present = Estimator(imu, 1e-3, np.random.default_rng(0), "authors-cvel")
+    for k in range(12):
+        got = lagged.update(0.01 * k, 0.1 * k, twists[max(0, k - 1)])
+        want = present.update(0.01 * k, 0.1 * k, twists[k])
+        assert got.base_accel == constant_twist_accel(twists[max(0, k - delay)])
+        assert (got.q1, got.dq1, got.ddq1, got.base_accel) == (want.q1, want.dq1, want.ddq1, want.base_accel)
+
+
+def _cvel_of(m, qpos, qvel, body: int) -> np.ndarray:
+    """cvel's definition, from the state: the body's angular velocity and the velocity of the point at the
+    robot's centre of mass moving with it, v_origin + w x (com - origin), world axes."""
+    import mujoco
+
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = qpos, qvel
+    mujoco.mj_forward(m, d)
+    rot = d.xmat[body].reshape(3, 3)
+    w = rot @ qvel[3:6]  # the free joint's angular velocity is body-frame
+    return np.r_[w, qvel[0:3] + np.cross(w, d.subtree_com[body] - d.xpos[body])]
+
+
+def test_mujoco_estimate_carries_w_cross_v_of_cvel_one_step_late():
+    """"authors-cvel" in MuJoCo: at every step the estimate's base acceleration is w x v of the hind body's
+    cvel as the authors' code reads it then (d.cvel: the state before the last step, the first state's at
+    step 0), and that cvel is the COM point's velocity of the state one step back (world axes)."""
+    pytest.importorskip("mujoco")
+    cfg = WorldConfig(host="spined-dog", engine="mujoco", base_motion="authors-cvel", init_vx_m_s=0.7,
+                      imu=EXACT)
+    with make_world(cfg) as w:
+        w.set_torques([0.5, -0.3, 0.2], {k: (0.0, 0.4, -0.6) for k in w.legs})
+        hind = w._base
+        states = [(w.data.qpos.copy(), w.data.qvel.copy())]
+        for k in range(40):
+            cvel = w.data.cvel[hind].copy()
+            np.testing.assert_allclose(cvel, _cvel_of(w.model, *states[max(0, k - 1)], hind), atol=1e-12)
+            assert w.authors_twist() == (*cvel[3:6].tolist(), *cvel[0:3].tolist())
+            acc = w.estimate().base_accel
+            assert acc == constant_twist_accel(w.authors_twist())
+            np.testing.assert_allclose(acc, np.cross(cvel[0:3], cvel[3:6]), rtol=0, atol=1e-14)
+            w.step()
+            states.append((w.data.qpos.copy(), w.data.qvel.copy()))
+        # not the body twist: the COM point's velocity, world axes
+        assert np.abs(np.array(w.authors_twist()[:3]) - np.array(w.base_twist()[:3])).max() > 1e-3
+
+
+def test_pybullet_authors_twist_is_the_com_point_velocity():
+    """pybullet's authors' twist is the present state's velocity of the whole robot's COM point moving with
+    the hind body (world axes); with the joints at rest every link moves with it, so it is the robot's COM
+    velocity. Through the estimate (delay 1) it is the previous step's, as MuJoCo's cvel is."""
+    pb = pytest.importorskip("pybullet")
+    cfg = WorldConfig(host="spined-dog", engine="pybullet", base_motion="authors-cvel", imu=EXACT)
+    with make_world(cfg) as w:
+        c, robot = w.client, w.robot
+        pb.resetBaseVelocity(robot, [0.6, -0.1, 0.2], [0.3, -1.5, 0.4], physicsClientId=c)
+        w.read()
+        links = range(pb.getNumJoints(robot, physicsClientId=c))
+        mass = [pb.getDynamicsInfo(robot, i, physicsClientId=c)[0] for i in (-1, *links)]
+        vel = [pb.getBaseVelocity(robot, physicsClientId=c)[0]]
+        vel += [pb.getLinkState(robot, i, computeLinkVelocity=1, computeForwardKinematics=1,
+                                physicsClientId=c)[6] for i in links]
+        com_vel = (np.array(mass)[:, None] * np.array(vel)).sum(axis=0) / sum(mass)
+        tw = w.authors_twist()
+        np.testing.assert_allclose(tw[:3], com_vel, atol=1e-9)
+        np.testing.assert_allclose(tw[3:], w.base_omega, atol=1e-15)
+        w.set_torques([0.0, 0.0, 0.0], {k: (0.0, 0.0, 0.0) for k in w.legs})
+        w.estimate()
+        prev = tw
+        for _ in range(5):
+            w.step()
+            assert w.estimate().base_accel == constant_twist_accel(prev)
+            prev = w.authors_twist()
 
 
 def test_direct_spine_hands_the_estimate_to_the_law():

@@ -50,25 +50,29 @@ def test_held_steps_bit_identical_study_trial(engine):
     _assert_same(*_both(cfg), chunks=engine == "mujoco")
 
 
-@pytest.mark.parametrize("base_motion", ["constant-twist", "fixed"])
+@pytest.mark.parametrize("base_motion", ["authors-cvel", "constant-twist", "fixed"])
 def test_held_steps_bit_identical_through_a_fall(base_motion):
-    """The authors' run at L = 0.12 m falls; stop_on_fall ends both runs at the same step. Both base
-    motions: the constant-twist estimate needs each held state's twist (`step_chunk`'s)."""
+    """The authors' run at L = 0.12 m falls; stop_on_fall ends both runs at the same step. Every base
+    motion: the constant-twist estimate needs each held state's twist, the authors' each held step's cvel
+    (`step_chunk`'s)."""
     cfg = authors_run.bound_config(step_length_m=0.12, k_x_n_m=800.0, duration_s=5.0, base_motion=base_motion)
     held, full = _both(cfg)
     assert held.metrics["fell"]
     _assert_same(held, full)
 
 
-def test_held_steps_bit_identical_with_the_base_acceleration_at_l_0_08():
-    """L = 0.08 m, k_x 800 for 6 s (through the switch and the frequency adaptation), constant twist."""
-    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=6.0)
-    assert cfg.world.base_motion == "constant-twist"
+@pytest.mark.parametrize("base_motion", ["authors-cvel", "constant-twist"])
+def test_held_steps_bit_identical_with_the_base_acceleration_at_l_0_08(base_motion):
+    """L = 0.08 m, k_x 800 for 6 s (through the switch and the frequency adaptation), the authors' cvel (the
+    run's default) and the true twist."""
+    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=6.0, base_motion=base_motion)
+    assert authors_run.bound_config().world.base_motion == "authors-cvel"
     held, full = _both(cfg)
     assert not held.metrics["fell"]
     _assert_same(held, full)
-    fixed = run_bound(replace(cfg, world=replace(cfg.world, base_motion="fixed")))
-    assert fixed.series.tobytes() != held.series.tobytes()  # the estimate's acceleration reached the law
+    for other in {"fixed", "constant-twist", "authors-cvel"} - {base_motion}:
+        run = run_bound(replace(cfg, world=replace(cfg.world, base_motion=other)))
+        assert run.series.tobytes() != held.series.tobytes()  # the estimate's acceleration reached the law
 
 
 def _as_read(state: tuple) -> tuple:
@@ -94,20 +98,25 @@ def _chunk_against_steps(a, b, k: int) -> np.ndarray:
     want = []
     for st in b.step_chunk(k, 0):
         a.step()
+        est = a.estimator
+        twist = (a.authors_twist() if est.uses_authors_twist else a.base_twist()) if est.needs_twist else None
         assert _as_read(st) == (a.t, a.q1, a.dq1, a.roll, a.yaw, a.q_spine, a.dq_spine, a.body_contact,
-                                a.base_twist() if a.estimator.needs_twist else None)
+                                twist)
         want.append(_held_values(a))
     got = b.held_rows(np.arange(1, k + 1))
     assert got.tolist() == want
     return got
 
 
-def test_mujoco_chunk_keeps_what_read_gives():
+@pytest.mark.parametrize("base_motion", ["authors-cvel", "constant-twist"])
+def test_mujoco_chunk_keeps_what_read_gives(base_motion):
     """MuJoCo's chunk (steps back to back, raw states converted after) gives, state by state, what `step` +
-    `read` give; `rewind` takes it back to a state exactly."""
-    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0)
+    `read` give (the twist too: the authors' cvel or the body twist); `rewind` takes it back to a state
+    exactly."""
+    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0, base_motion=base_motion)
     a, b, c = make_world(cfg.world), make_world(cfg.world), make_world(cfg.world)
     assert b.can_rewind and b.estimator.needs_twist
+    assert b.estimator.uses_authors_twist == (base_motion == "authors-cvel")
     got = _chunk_against_steps(a, b, 200)
     assert any(got[:, HELD_STATE.index("contact_HL")] > 0.5)  # the feet touched: the flags were exercised
     assert any(got[:, HELD_STATE.index("contact_HL")] < 0.5)
@@ -118,6 +127,7 @@ def test_mujoco_chunk_keeps_what_read_gives():
         c.step()
     b.rewind(57)
     assert (b.t, b.jq, b.jdq, b.contact_force) == (c.t, c.jq, c.jdq, c.contact_force)
+    assert b.authors_twist() == c.authors_twist()  # cvel after the rewind's last step, as after c's
 
 
 def test_a_world_that_cannot_rewind_is_stepped_in_full():
