@@ -24,7 +24,7 @@ test: install
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q -m "not slow"
 
-# the unit tier: no slow studies, no multi-process integration tests
+# the unit tier (under a minute): no slow studies, no multi-process or end-to-end workflow tests
 test-unit: install
 	$(BIN)/python -m pytest -q -m "not slow and not integration"
 
