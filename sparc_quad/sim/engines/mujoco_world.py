@@ -390,23 +390,25 @@ class MujocoWorld(QuadWorld):
         self.steps = steps0 + k
         self.t = self.steps * self.cfg.dt_s
         self.read()
-        states = []
+        # each new state as `read` converts it (the same formulas and order), element by element
         dt, held_q, held_dq = self.cfg.dt_s, self._held_q, self._held_dq
-        vs = vb[row + 1:row + k + 1].tolist()
+        rotation, angles, body_twist = _rotation, _pitch_rate_roll_yaw, _body_twist
         twist = self.estimator.needs_twist
-        cs = cb[row + 1:row + k + 1].tolist() if cb is not None else None
-        r = 0
-        for qp in qb[row + 1:row + k + 1].tolist():
-            qv = vs[r]
-            rot = _rotation(*qp[3:7])
-            q1, dq1, roll, yaw = _pitch_rate_roll_yaw(rot, *qv[3:6])  # as `read`
+        rows = slice(row + 1, row + k + 1)
+        qs, vs = qb[rows].tolist(), vb[rows].tolist()
+        cs = cb[rows].tolist() if cb is not None else None
+        states = []
+        append = states.append
+        for r in range(k):
+            qp, qv = qs[r], vs[r]
+            rot = rotation(qp[3], qp[4], qp[5], qp[6])
+            q1, dq1, roll, yaw = angles(rot, qv[3], qv[4], qv[5])
             if cs is not None:  # as `authors_twist`
-                wx, wy, wz, vx, vy, vz = cs[r]
-                tw = (vx, vy, vz, wx, wy, wz)
+                c = cs[r]
+                tw = (c[3], c[4], c[5], c[0], c[1], c[2])
             else:
-                tw = _body_twist(rot, qv) if twist else None
-            r += 1
-            states.append(((steps0 + r) * dt, q1, dq1, roll, yaw, held_q(qp), held_dq(qv), False, tw))
+                tw = body_twist(rot, qv) if twist else None
+            append(((steps0 + r + 1) * dt, q1, dq1, roll, yaw, held_q(qp), held_dq(qv), False, tw))
         return states
 
     def rewind(self, r: int) -> None:
