@@ -103,10 +103,21 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except Exception as exc:
         return internal_error(name, exc, args, args.verbose > 0)
+    finally:
+        _end_process_requests()
     if rc == 130:  # Ctrl-C: KeyboardInterrupt, or a service stopped cleanly by it (signals.Stop)
         _interrupted(name)
     return rc
 
+
+
+def _end_process_requests() -> None:
+    """What a command asked of the kernel for its process ends with the command, also when it runs in a
+    caller's process (a test, a script calling `main`): the CPU wake-latency request of spine-node and
+    bound --lcm (`spine_module.node.realtime`, loaded only by them)."""
+    realtime = sys.modules.get("spine_module.node.realtime")
+    if realtime is not None:
+        realtime.release_wake_latency()
 
 
 def entry() -> None:

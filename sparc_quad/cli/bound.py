@@ -229,17 +229,6 @@ def speed_warning(metrics: dict, target_m_s: float | None) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """`bound`; the CPU wake-latency request it may make ends with it (in a test or a caller's process
-    too, not only at exit)."""
-    from spine_module.node import realtime
-
-    try:
-        return _run(args)
-    finally:
-        realtime.release_wake_latency()
-
-
-def _run(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bound_run import run_bound, write_outputs
 
     if args.video and args.no_plots:

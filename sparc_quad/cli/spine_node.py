@@ -134,17 +134,6 @@ def _make_bus(args: argparse.Namespace, lc):
 
 
 def run(args: argparse.Namespace) -> int:
-    """`spine-node`; the CPU wake-latency request it may make ends with it (in a test or a caller's process
-    too, not only at exit)."""
-    from spine_module.node import realtime
-
-    try:
-        return _run(args)
-    finally:
-        realtime.release_wake_latency()
-
-
-def _run(args: argparse.Namespace) -> int:
     import lcm
 
     from spine_module.node import Controllers, LcmNodeIO, SpineNode, realtime, run_lockstep, run_realtime

@@ -367,24 +367,16 @@ class MujocoWorld(QuadWorld):
         steps0 = self.steps
         self._chunk = (row, steps0)
         wall = 0.0
-        cb = self._cb
-        if cb is None:
-            for j in range(row + 1, row + k + 1):
-                t0 = clock()
-                step(m, d)
-                wall += clock() - t0
-                qb[j] = qpos
-                vb[j] = qvel
-                sb[j] = sens
-        else:  # the authors' twist: each new state's cvel (that of the state before it) as well
-            cvel = self._cvel_base
-            for j in range(row + 1, row + k + 1):
-                t0 = clock()
-                step(m, d)
-                wall += clock() - t0
-                qb[j] = qpos
-                vb[j] = qvel
-                sb[j] = sens
+        cb = self._cb  # the authors' twist: each new state's cvel (that of the state before it) as well
+        cvel = self._cvel_base if cb is not None else None
+        for j in range(row + 1, row + k + 1):
+            t0 = clock()
+            step(m, d)
+            wall += clock() - t0
+            qb[j] = qpos
+            vb[j] = qvel
+            sb[j] = sens
+            if cb is not None:
                 cb[j] = cvel
         self.physics_wall_s += wall
         self.steps = steps0 + k
