@@ -53,7 +53,9 @@ def test_recorded_session_loads_as_trial(lcm_run):
     np.testing.assert_array_equal(tr.f_ext[mine, 0], a["node_load_cell"][theirs, 0])
     assert not np.any(tr.f_ext[:, 1:]) and np.ptp(tr.f_ext[:, 0]) > 1.0  # the push-pull is in the log
     assert np.max(np.abs(tr.tau_cmd)) > 0.1  # the node was controlling, not idle
-    assert tr.meta["source"]["spine_states"] == n
+    # the states in the log and the ones filled in make the whole session (a loaded machine's logger can
+    # miss a few: 3 of 2000 seen)
+    assert tr.meta["source"]["spine_states"] + int(filled.sum()) == n, logs
     # the same file through the workflow's loader, and with a sidecar that keeps q1 (from the torso state)
     assert len(load_trials([log])[0].t) == n
     side = log.with_name("q1free.json")
