@@ -320,7 +320,9 @@ class SpineNode:
         ddq1 = torso.ddq1 if torso is not None and torso.ddq1_valid else 0.0
         # the base joint origin's acceleration (hind-body frame) when the estimator gives it, else 0: the
         # paper's fixed-origin law (the decoder has refused a non-finite or out-of-range valid one)
-        base_accel = torso.base_accel if torso is not None and torso.base_accel_valid else _ZEROS3
+        # (None, not a shared read-only zeros array: the compiled step takes only writable float64 arrays and
+        # anything else sends it down the reference path, ~150 us a tick measured)
+        base_accel = torso.base_accel if torso is not None and torso.base_accel_valid else None
         try:
             # gains, target and the friction switch change only with the command's numbers, the
             # soft-start scale or the controller: set them then, not every tick (a stream of equal
