@@ -124,7 +124,9 @@ class SineBoundController(Gait):
     """Leg torques of the open-loop bound. `step(t)` -> {leg: (tau_haa, tau_hfe, tau_kfe)} N*m, once per
     physics step; `observe_spine(t, x)` after it with the spine extension (m) the spine drive computed."""
 
-    def __init__(self, world, params: SineBoundParams | None = None):
+    def __init__(self, world, params: SineBoundParams | None = None, backend: str = "python"):
+        """`backend` "numba": the joint PD at each call through the compiled `sine_kernel.pd_step` (the same
+        doubles as the Python path, tests/sparc_quad/gaits/test_sine_kernel.py)."""
         self.p = p = params or SineBoundParams()
         legs = world.meta["legs"]
         reach = min(legs[k]["thigh_m"] + legs[k]["shank_m"] for k in LEGS)
@@ -142,6 +144,18 @@ class SineBoundController(Gait):
         self._last_yaw_err = 0.0
         self._pending_f: float | None = None
         self.out = {k: (0.0, 0.0, 0.0) for k in LEGS}
+        self._compiled = None
+        if backend == "numba":
+            from sparc_quad.gaits.sine_compiled import pd_step
+
+            self._compiled = pd_step
+            self._legs_arr = np.array([[off, 1.0 if side == "R" else 0.0, *slots, *links]
+                                       for _, off, side, slots, links in self._legs], dtype=float)
+            self._gains_arr = np.array([p.kp_nm_rad, p.kd_nm_s_rad, p.haa_kp_nm_rad, p.haa_kd_nm_s_rad,
+                                        self.tau_limit, self._x_sign, p.step_length_m, p.hip_depth_m,
+                                        p.step_height_m], dtype=float)
+            self._out_arr = np.zeros((4, 3))
+            self.backend = "numba"
         self.stance_flags = {"hind": True, "front": True}
         self.target_peak_phase: float | None = None
         self._cal_phases: list[float] = []
@@ -225,6 +239,9 @@ class SineBoundController(Gait):
         self.stride_scale = {"L": 1.0 - cmd, "R": 1.0 + cmd}  # cmd > 0: right strides longer
 
     def _pd(self, phase: float, amp: float, running: bool) -> None:
+        if running and self._compiled is not None:
+            self._pd_compiled(phase, amp)
+            return
         p, w, lim = self.p, self.w, self.tau_limit
         jq, jdq, scale, out = w.jq, w.jdq, self.stride_scale, self.out
         kp, kd, haa_kp, haa_kd = p.kp_nm_rad, p.kd_nm_s_rad, p.haa_kp_nm_rad, p.haa_kd_nm_s_rad
@@ -239,6 +256,15 @@ class SineBoundController(Gait):
             out[leg] = (max(-lim, min(lim, tau_haa)), max(-lim, min(lim, tau_h)), max(-lim, min(lim, tau_k)))
         self.stance_flags["hind"] = not running or math.sin(phase) <= 0.0
         self.stance_flags["front"] = not running or math.sin(phase + math.pi) <= 0.0
+
+    def _pd_compiled(self, phase: float, amp: float) -> None:
+        w, scale, out, arr = self.w, self.stride_scale, self.out, self._out_arr
+        self._compiled(phase, amp, scale["L"], scale["R"], np.array(w.jq, dtype=float),
+                       np.array(w.jdq, dtype=float), self._legs_arr, self._gains_arr, arr)
+        hl, hr, fl, fr = arr.tolist()
+        out["HL"], out["HR"], out["FL"], out["FR"] = tuple(hl), tuple(hr), tuple(fl), tuple(fr)
+        self.stance_flags["hind"] = math.sin(phase) <= 0.0
+        self.stance_flags["front"] = math.sin(phase + math.pi) <= 0.0
 
     def step(self, t: float) -> dict[str, tuple[float, float, float]]:
         if self.clock is None:

@@ -97,9 +97,9 @@ _SPINE_BACKEND = {"numba": "numba", "python": "pinocchio"}
 
 
 def make_gait(world: QuadWorld, params: BoundParams | SineBoundParams, backend: str = "python") -> Gait:
-    """The leg controller; `backend` "numba" compiles gait B (the sine bound is cheap and stays Python)."""
+    """The leg controller; `backend` "numba": gait B's whole step compiled, gait A's joint PD at its calls."""
     if isinstance(params, SineBoundParams):
-        return SineBoundController(world, params)
+        return SineBoundController(world, params, backend)
     if backend == "numba":
         from sparc_quad.gaits.bound_fast import CompiledBoundController
 
