@@ -120,6 +120,17 @@ class SineBoundParams:
             raise ValueError(f"foot target {reach:.3f} m from the hip is beyond the {reach_m:.3f} m leg")
 
 
+def foot_xz(ph: float, scale: float, amp: float, x_sign: float, step_length_m: float, hip_depth_m: float,
+            step_height_m: float) -> tuple[float, float]:
+    """Foot (x, z) m relative to the hip in the body frame at leg phase `ph` (rad): x = L cos(ph) scaled by
+    the side's stride scale and the stride's sign, z the hip depth plus the raised half of H sin(ph). The
+    one formula (the Python gait and the compiled `sine_kernel` both call it)."""
+    s = math.sin(ph)
+    x = x_sign * amp * step_length_m * scale * math.cos(ph)
+    z = -hip_depth_m + (amp * step_height_m * s if s > 0 else 0.0)
+    return x, z
+
+
 class SineBoundController(Gait):
     """Leg torques of the open-loop bound. `step(t)` -> {leg: (tau_haa, tau_hfe, tau_kfe)} N*m, once per
     physics step; `observe_spine(t, x)` after it with the spine extension (m) the spine drive computed."""
@@ -209,10 +220,7 @@ class SineBoundController(Gait):
     def _foot_xz(self, ph: float, scale: float, amp: float) -> tuple[float, float]:
         """`foot_target` at the leg's own phase `ph` (rad) and its side's stride scale."""
         p = self.p
-        s = math.sin(ph)
-        x = self._x_sign * amp * p.step_length_m * scale * math.cos(ph)
-        z = -p.hip_depth_m + (amp * p.step_height_m * s if s > 0 else 0.0)
-        return x, z
+        return foot_xz(ph, scale, amp, self._x_sign, p.step_length_m, p.hip_depth_m, p.step_height_m)
 
     def start_leg_angles(self) -> dict[str, tuple[float, float]]:
         """(HFE, KFE) of each leg at the start: on the trajectory at t = 0 at the start offsets (authors:
