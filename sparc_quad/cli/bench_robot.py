@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
             robot = BenchRobot(world, port, s)
             # the world stays frozen until a node is up (unpowered, the spine would sag under gravity)
             if not robot.wait_for_node(args.wait_node):
-                log.error("no heartbeat from a spine node within %.1f s", args.wait_node)
+                log.error("no heartbeat from a spine node within %g s", args.wait_node)
                 return 1
             rate = None
             try:

@@ -190,6 +190,21 @@ def config_from_args(args: argparse.Namespace):
     )
 
 
+def check_world(cfg) -> None:
+    """BadInput for an estimator the engine cannot feed: `authors-cvel` reads MuJoCo's cvel one step late,
+    so the estimate must be at least that late (--imu-delay)."""
+    from sparc_quad.sim.engines import world_class
+    from sparc_quad.sim.quadruped_world import twist_lag_problem
+
+    w = cfg.world
+    if w.base_motion != "authors-cvel":
+        return
+    problem = twist_lag_problem(w.base_motion, world_class(w.engine).cvel_lag_steps, w.imu.delay_steps)
+    if problem is not None:
+        raise BadInput(f"--base-motion authors-cvel with --engine {w.engine}: {problem} (give --imu-delay 1 "
+                       "or more, or another --base-motion)")
+
+
 def check_gait(cfg) -> None:
     """BadInput for a gait the legs cannot walk: the sine bound's own check of its foot targets, and for
     the Raibert bound a stance longer than the legs can sweep at the gait's hip height (the target speed
@@ -238,6 +253,7 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput(missing)
     cfg = config_from_args(args)
     check_gait(cfg)
+    check_world(cfg)
     spine = None
     if (args.rigid_spine or args.spine_variant != "impedance") and (args.lcm or args.spine == "node"):
         raise BadInput("--rigid-spine / --spine-variant other than impedance do not use the spine node")

@@ -109,7 +109,7 @@ class QuadPlant:
     def set(self, est, q_spine, dq_spine) -> None:
         """The estimate as the torso state: q̈1 always valid; the base acceleration valid when the estimate
         has one (`EstimatorOutput.base_accel`, WorldConfig.base_motion other than "fixed")."""
-        acc = getattr(est, "base_accel", None)
+        acc = est.base_accel
         t = TorsoState(q1=float(est.q1), dq1=float(est.dq1), ddq1=float(est.ddq1), ddq1_valid=True)
         if acc is not None:
             t.base_accel, t.base_accel_valid = np.array(acc, dtype=float), True

@@ -86,7 +86,7 @@ class NodeSpine:
         spine = cls(LcmPort(url, spin_s=spin_s), gains, friction, lockstep=lockstep, **kw)
         if not spine.robot.wait_for_node(wait_node_s):  # tick 0 must not be published into the void
             spine.port.close()
-            raise TimeoutError(f"no heartbeat from a spine node within {wait_node_s:.1f} s")
+            raise TimeoutError(f"no heartbeat from a spine node within {wait_node_s:g} s")
         return spine
 
     def begin(self, est, q_spine, dq_spine, t_sim: float) -> None:

@@ -80,6 +80,16 @@ def constant_twist_accel(twist, r=(0.0, 0.0, 0.0)) -> tuple[float, float, float]
     return (wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx)
 
 
+def twist_lag_problem(base_motion: str, twist_lag_steps: int, delay_steps: int) -> str | None:
+    """Why an estimator cannot file a twist `twist_lag_steps` old under an estimate `delay_steps` late
+    (MuJoCo's `cvel` after mj_step is the state before the step), or None."""
+    if twist_lag_steps > delay_steps:
+        return (f"base_motion {base_motion!r} reads a twist {twist_lag_steps} step(s) late (MuJoCo's cvel "
+                f"lags qpos by a step after mj_step): it needs the estimator's delay_steps >= "
+                f"{twist_lag_steps}, got {delay_steps}")
+    return None
+
+
 class Estimator:
     """Torso estimator emulation: truth -> noise, bias, delay, a first-order filter on q̈1. Seeded.
 
@@ -103,10 +113,9 @@ class Estimator:
             raise ValueError(f"base_motion must be one of {', '.join(BASE_MOTIONS)}, got {base_motion!r}")
         if twist_lag_steps not in (0, 1):
             raise ValueError(f"twist_lag_steps must be 0 or 1, got {twist_lag_steps!r}")
-        if twist_lag_steps > cfg.delay_steps:
-            raise ValueError(f"base_motion {base_motion!r} reads a twist {twist_lag_steps} step(s) late "
-                             f"(MuJoCo's cvel lags qpos by a step after mj_step): it needs the estimator's "
-                             f"delay_steps >= {twist_lag_steps}, got {cfg.delay_steps}")
+        problem = twist_lag_problem(base_motion, twist_lag_steps, cfg.delay_steps)
+        if problem is not None:
+            raise ValueError(problem)
         self.base_motion = base_motion
         self.needs_twist = base_motion != "fixed"
         self.uses_authors_twist = base_motion == "authors-cvel"  # given `authors_twist`, not `base_twist`

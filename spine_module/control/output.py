@@ -144,8 +144,9 @@ class TaskController:
              base_accel: np.ndarray | None = None) -> ControlOutput:
         """One cycle: joint state (rad, rad/s, [q1..q4]), torso acceleration q̈1 (rad/s²) and the base
         joint origin's linear acceleration in the hind-body frame (m/s², gravity not included; None: 0,
-        the paper's fixed-origin law) → torques. The compiled step takes `base_accel` as a C-contiguous
-        float64 array of 3 without a copy; anything else runs the reference path.
+        the paper's fixed-origin law) → torques. The compiled step takes q, dq and `base_accel` as writable
+        C-contiguous float64 arrays without a copy; anything else (a read-only array, a list, float32)
+        goes through numba's failed dispatch to the reference path, ~100x the cost.
 
         Never raises: a bad input gives tau = 0, ok False and `error` naming it.
         """

@@ -43,6 +43,10 @@ def _cases(tmp: Path) -> list[tuple[str, list[str]]]:
         ("LCM URL", ["spine-node", "--lcm-url", ""]),
         ("LCM URL", ["spine-cmd", "--lcm-url", "nonsense"]),
         ("LCM URL", ["bound", "--lcm", "--lcm-url", "http://x"]),
+        ("the authors' twist, no estimate delay", ["bound", "--host", "spined-dog", "--engine", "mujoco",
+                                                   "--gait", "sine", "--imu-delay", "0"]),
+        ("the same on Solo12", ["bound", "--host", "solo12", "--engine", "mujoco", "--base-motion",
+                                "authors-cvel", "--imu-delay", "0"]),
         ("motor ids", ["motors", "emulate", "--ids", "1,1"]),
         *[("motor ids", ["motors", "scan", "--ids", v])
           for v in ("0", "200", "-1", "nan", "", "1,,2", "0x80")],
