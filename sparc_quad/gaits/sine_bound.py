@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sparc_quad.gaits.base import Gait
+from sparc_quad.gaits.sine_kernel import foot_xz
 from sparc_quad.sim.control_clock import ControlClock
 from sparc_quad.sim.quadruped_world import planar_leg_ik
 
@@ -118,17 +119,6 @@ class SineBoundParams:
         reach = math.hypot(self.step_length_m * 1.4, self.hip_depth_m)  # +40 % steering stride
         if reach >= reach_m:
             raise ValueError(f"foot target {reach:.3f} m from the hip is beyond the {reach_m:.3f} m leg")
-
-
-def foot_xz(ph: float, scale: float, amp: float, x_sign: float, step_length_m: float, hip_depth_m: float,
-            step_height_m: float) -> tuple[float, float]:
-    """Foot (x, z) m relative to the hip in the body frame at leg phase `ph` (rad): x = L cos(ph) scaled by
-    the side's stride scale and the stride's sign, z the hip depth plus the raised half of H sin(ph). The
-    one formula (the Python gait and the compiled `sine_kernel` both call it)."""
-    s = math.sin(ph)
-    x = x_sign * amp * step_length_m * scale * math.cos(ph)
-    z = -hip_depth_m + (amp * step_height_m * s if s > 0 else 0.0)
-    return x, z
 
 
 class SineBoundController(Gait):

@@ -8,12 +8,12 @@ from collections.abc import Callable
 from numba import njit
 from numba.extending import register_jitable
 
-from sparc_quad.gaits import sine_bound, sine_kernel
+from sparc_quad.gaits import sine_kernel
 from sparc_quad.sim import quadruped_world
 
 # what the step calls, compiled with it (Python still calls the originals)
 register_jitable(sine_kernel.clip)
-register_jitable(sine_bound.foot_xz)
+register_jitable(sine_kernel.foot_xz)
 register_jitable(quadruped_world.planar_leg_ik)
 
 # phase, amp, scale_l, scale_r, jq, jdq, legs, gains, out

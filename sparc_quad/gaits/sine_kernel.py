@@ -1,7 +1,7 @@
 """Gait A's joint PD step at a control call, over plain float64 arrays: what `SineBoundController._pd`
-computes while running, in a form numba can compile (`sine_compiled`). It calls the Python path's own
-`foot_xz` and `planar_leg_ik` (compiled with it) and clips with Python's min/max semantics, so the compiled
-step gives the same doubles for finite states: the open-loop bound's 20 s outcome flips on differences far
+computes while running, in a form numba can compile (`sine_compiled`). It calls what the Python path
+calls, `foot_xz` (here) and `planar_leg_ik` (compiled with it), and clips with Python's min/max
+semantics, so the compiled step gives the same doubles for finite states: the open-loop bound's 20 s outcome flips on differences far
 smaller than a round-off (docs/results/2026-12-02-base-motion.md).
 
 legs (4, 8): per leg HL, HR, FL, FR: phase offset (rad), 1.0 for a right leg (its stride scale), HAA, HFE,
@@ -12,8 +12,20 @@ H (m). out (4, 3): HAA, HFE, KFE torques (N*m) per leg.
 
 from __future__ import annotations
 
-from sparc_quad.gaits.sine_bound import foot_xz
+import math
+
 from sparc_quad.sim.quadruped_world import planar_leg_ik
+
+
+def foot_xz(ph: float, scale: float, amp: float, x_sign: float, step_length_m: float, hip_depth_m: float,
+            step_height_m: float) -> tuple[float, float]:
+    """Foot (x, z) m relative to the hip in the body frame at leg phase `ph` (rad): x = L cos(ph) scaled by
+    the side's stride scale and the stride's sign, z the hip depth plus the raised half of H sin(ph). The
+    one formula (the Python gait and the compiled step below both call it)."""
+    s = math.sin(ph)
+    x = x_sign * amp * step_length_m * scale * math.cos(ph)
+    z = -hip_depth_m + (amp * step_height_m * s if s > 0 else 0.0)
+    return x, z
 
 
 def clip(v: float, lim: float) -> float:
