@@ -7,10 +7,13 @@ expected type and, when it is one of ours, the type that was actually sent.
 
 from __future__ import annotations
 
+import functools
 import math
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 from io import BytesIO
+from typing import ParamSpec
 
 import numpy as np
 
@@ -516,24 +519,31 @@ def _l(a, n: int = 3) -> list[float]:
     return out
 
 
+_FAST_MISS = (AttributeError, TypeError, struct.error)  # what packing a value of the wrong kind raises
+_P = ParamSpec("_P")
+
+
+def _falls_back_to(checked: Callable[_P, bytes]
+                   ) -> Callable[[Callable[_P, bytes | None]], Callable[_P, bytes]]:
+    """Wraps a fast encoder (one struct call on the values as they come) that returns None, or raises one
+    of `_FAST_MISS`, when they are not what it packs: `checked`, the general path, then gives the same
+    bytes, or its error. One hand-over for every fast encoder, so none can fall back differently."""
+    def wrap(fast: Callable[_P, bytes | None]) -> Callable[_P, bytes]:
+        @functools.wraps(fast)
+        def encode(*args: _P.args, **kwargs: _P.kwargs) -> bytes:
+            try:
+                out = fast(*args, **kwargs)
+            except _FAST_MISS:
+                out = None
+            return checked(*args, **kwargs) if out is None else out
+        return encode
+    return wrap
+
+
 _TORSO_STRUCT = _TORSO.parts[0][0] if _TORSO.fixed and len(_TORSO.parts) == 1 else None
 if _TORSO_STRUCT is None or tuple(torso_state_t.__slots__) != (
         "utime", "seq", "q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega", "base_accel", "base_accel_valid"):
     raise RuntimeError("torso_state_t changed: update codec.encode_torso's fast path")
-
-
-def encode_torso(t: TorsoState) -> bytes:
-    """The robot's every tick: one struct call when quat, omega and base_accel are 1-D arrays of 4, 3 and
-    3 values; anything else takes the general path (same bytes, or its error)."""
-    try:
-        quat, omega, acc = t.quat.tolist(), t.omega.tolist(), t.base_accel.tolist()
-        if len(quat) == 4 and len(omega) == 3 and len(acc) == 3:
-            return _TORSO.fingerprint + _TORSO_STRUCT.pack(
-                _us(t.stamp_s), int(t.seq), float(t.q1), float(t.dq1), float(t.ddq1),
-                1 if t.ddq1_valid else 0, *quat, *omega, *acc, 1 if t.base_accel_valid else 0)
-    except (AttributeError, TypeError, struct.error):
-        pass
-    return encode_torso_checked(t)
 
 
 def encode_torso_checked(t: TorsoState) -> bytes:
@@ -544,6 +554,18 @@ def encode_torso_checked(t: TorsoState) -> bytes:
     m.quat, m.omega = _l(t.quat, 4), _l(t.omega)
     m.base_accel, m.base_accel_valid = _l(t.base_accel), bool(t.base_accel_valid)
     return _encode(m)
+
+
+@_falls_back_to(encode_torso_checked)
+def encode_torso(t: TorsoState) -> bytes | None:
+    """The robot's every tick: one struct call when quat, omega and base_accel are 1-D arrays of 4, 3 and
+    3 values; anything else takes the general path (same bytes, or its error)."""
+    quat, omega, acc = t.quat.tolist(), t.omega.tolist(), t.base_accel.tolist()
+    if len(quat) == 4 and len(omega) == 3 and len(acc) == 3:
+        return _TORSO.fingerprint + _TORSO_STRUCT.pack(
+            _us(t.stamp_s), int(t.seq), float(t.q1), float(t.dq1), float(t.ddq1),
+            1 if t.ddq1_valid else 0, *quat, *omega, *acc, 1 if t.base_accel_valid else 0)
+    return None
 
 
 def encode_command(c: SpineCommand) -> bytes:
@@ -561,22 +583,6 @@ def encode_heartbeat(h: Heartbeat) -> bytes:
     return _encode(m)
 
 
-def encode_motor_feedback(f: MotorFeedback) -> bytes:
-    """The robot's every tick: one struct call when the fields are 1-D arrays of the right lengths (float
-    vectors, integer mode/fault); anything else takes the general path (same bytes, or its error)."""
-    try:
-        q, dq, tau, temp = f.q.tolist(), f.dq.tolist(), f.tau.tolist(), f.temperature_c.tolist()
-        mode, fault, cell = f.mode.tolist(), f.fault.tolist(), f.load_cell_n.tolist()
-        if (len(q) == 3 and len(dq) == 3 and len(tau) == 3 and len(temp) == 3 and len(mode) == 3
-                and len(fault) == 3 and len(cell) == 2 and f.mode.dtype.kind in "iu"
-                and f.fault.dtype.kind in "iu"):
-            return _FEEDBACK.fingerprint + _FEEDBACK_STRUCT.pack(
-                _us(f.stamp_s), int(f.seq), *q, *dq, *tau, *temp, *mode, *fault, *cell)
-    except (AttributeError, TypeError, struct.error):
-        pass
-    return encode_motor_feedback_checked(f)
-
-
 def encode_motor_feedback_checked(f: MotorFeedback) -> bytes:
     """`encode_motor_feedback` through the generated object: the reference."""
     m = _blank(motor_feedback_t)
@@ -588,18 +594,18 @@ def encode_motor_feedback_checked(f: MotorFeedback) -> bytes:
     return _encode(m)
 
 
-def encode_motor_command(c: MotorCommand, feedback_seq: int = -1) -> bytes:
-    """The node's every tick over LCM: one struct call when the arrays are 1-D of length 3; anything else
-    takes the general path (same bytes, or its error)."""
-    try:
-        pos, vel, kp, kd, tau = c.q_des.tolist(), c.dq_des.tolist(), c.kp.tolist(), c.kd.tolist(), \
-            c.tau_ff.tolist()
-        if len(pos) == 3 and len(vel) == 3 and len(kp) == 3 and len(kd) == 3 and len(tau) == 3:
-            return _MCMD.fingerprint + _MCMD_STRUCT.pack(_us(c.stamp_s), int(c.seq), int(feedback_seq),
-                                                         1 if c.enable else 0, *pos, *vel, *kp, *kd, *tau)
-    except (AttributeError, TypeError, struct.error):
-        pass
-    return encode_motor_command_checked(c, feedback_seq)
+@_falls_back_to(encode_motor_feedback_checked)
+def encode_motor_feedback(f: MotorFeedback) -> bytes | None:
+    """The robot's every tick: one struct call when the fields are 1-D arrays of the right lengths (float
+    vectors, integer mode/fault); anything else takes the general path (same bytes, or its error)."""
+    q, dq, tau, temp = f.q.tolist(), f.dq.tolist(), f.tau.tolist(), f.temperature_c.tolist()
+    mode, fault, cell = f.mode.tolist(), f.fault.tolist(), f.load_cell_n.tolist()
+    if (len(q) == 3 and len(dq) == 3 and len(tau) == 3 and len(temp) == 3 and len(mode) == 3
+            and len(fault) == 3 and len(cell) == 2 and f.mode.dtype.kind in "iu"
+            and f.fault.dtype.kind in "iu"):
+        return _FEEDBACK.fingerprint + _FEEDBACK_STRUCT.pack(
+            _us(f.stamp_s), int(f.seq), *q, *dq, *tau, *temp, *mode, *fault, *cell)
+    return None
 
 
 def encode_motor_command_checked(c: MotorCommand, feedback_seq: int = -1) -> bytes:
@@ -608,6 +614,18 @@ def encode_motor_command_checked(c: MotorCommand, feedback_seq: int = -1) -> byt
     m.utime, m.seq, m.feedback_seq, m.enable = _us(c.stamp_s), int(c.seq), int(feedback_seq), bool(c.enable)
     m.position, m.velocity, m.kp, m.kd, m.torque = _l(c.q_des), _l(c.dq_des), _l(c.kp), _l(c.kd), _l(c.tau_ff)
     return _encode(m)
+
+
+@_falls_back_to(encode_motor_command_checked)
+def encode_motor_command(c: MotorCommand, feedback_seq: int = -1) -> bytes | None:
+    """The node's every tick over LCM: one struct call when the arrays are 1-D of length 3; anything else
+    takes the general path (same bytes, or its error)."""
+    pos, vel, kp, kd, tau = (c.q_des.tolist(), c.dq_des.tolist(), c.kp.tolist(), c.kd.tolist(),
+                             c.tau_ff.tolist())
+    if len(pos) == 3 and len(vel) == 3 and len(kp) == 3 and len(kd) == 3 and len(tau) == 3:
+        return _MCMD.fingerprint + _MCMD_STRUCT.pack(_us(c.stamp_s), int(c.seq), int(feedback_seq),
+                                                     1 if c.enable else 0, *pos, *vel, *kp, *kd, *tau)
+    return None
 
 
 if tuple(spine_state_t.__slots__) != (
@@ -619,28 +637,33 @@ _STATE_HEAD, _STATE_TAIL = _STATE.parts[0][0], _STATE.parts[2][0]  # the runs be
 _U32 = struct.Struct(">I")
 
 
-def encode_state(s: SpineState) -> bytes:
-    """spine_state_t's bytes straight from the fields (slot order checked at import), with the layout's
-    precompiled structs: no generated object in between."""
-    try:  # the node's own state: float64 arrays of the right lengths, one tolist each
-        q, dq, tau_cmd, tau_est = s.q.tolist(), s.dq.tolist(), s.tau_cmd.tolist(), s.tau_est.tolist()
-        x, dx, load_cell = s.x.tolist(), s.dx.tolist(), s.load_cell.tolist()
-        temperature = s.temperature.tolist()
-        if (len(q) == 4 and len(dq) == 4 and len(tau_cmd) == 3 and len(tau_est) == 3 and len(x) == 3
-                and len(dx) == 3 and len(load_cell) == 2 and len(temperature) == 3):
-            rejected = s.rejected.encode("utf-8")
-            return b"".join((
-                _STATE.fingerprint,
-                _STATE_HEAD.pack(_us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode),
-                                 int(s.faults)),
-                _U32.pack(len(rejected) + 1), rejected, b"\0",
-                _STATE_TAIL.pack(*q, *dq, *tau_cmd, *tau_est, *x, *dx, float(s.gain_scale), *load_cell,
-                                 *temperature, float(s.period), float(s.jitter_max), float(s.compute),
-                                 int(s.feedback_seq), int(s.command_seq), int(s.torso_seq))))
-    except (AttributeError, TypeError, struct.error):  # lists, nested or odd values: the checked path
-        pass
+def encode_state_checked(s: SpineState) -> bytes:
+    """`encode_state` value by value (lists, integer arrays): every field converted and its length checked
+    (a wrong one is a ValueError), then the layout's `pack`."""
     return _STATE.pack([
         _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode), int(s.faults), s.rejected,
         *_l(s.q, 4), *_l(s.dq, 4), *_l(s.tau_cmd), *_l(s.tau_est), *_l(s.x), *_l(s.dx), float(s.gain_scale),
         *_l(s.load_cell, 2), *_l(s.temperature), float(s.period), float(s.jitter_max), float(s.compute),
         int(s.feedback_seq), int(s.command_seq), int(s.torso_seq)])
+
+
+@_falls_back_to(encode_state_checked)
+def encode_state(s: SpineState) -> bytes | None:
+    """spine_state_t's bytes straight from the fields (slot order checked at import), with the layout's
+    precompiled structs: no generated object in between. The node's own state is float64 arrays of the
+    right lengths, one tolist each; lists, nested or odd values take `encode_state_checked`."""
+    q, dq, tau_cmd, tau_est = s.q.tolist(), s.dq.tolist(), s.tau_cmd.tolist(), s.tau_est.tolist()
+    x, dx, load_cell = s.x.tolist(), s.dx.tolist(), s.load_cell.tolist()
+    temperature = s.temperature.tolist()
+    if (len(q) == 4 and len(dq) == 4 and len(tau_cmd) == 3 and len(tau_est) == 3 and len(x) == 3
+            and len(dx) == 3 and len(load_cell) == 2 and len(temperature) == 3):
+        rejected = s.rejected.encode("utf-8")
+        return b"".join((
+            _STATE.fingerprint,
+            _STATE_HEAD.pack(_us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode),
+                             int(s.faults)),
+            _U32.pack(len(rejected) + 1), rejected, b"\0",
+            _STATE_TAIL.pack(*q, *dq, *tau_cmd, *tau_est, *x, *dx, float(s.gain_scale), *load_cell,
+                             *temperature, float(s.period), float(s.jitter_max), float(s.compute),
+                             int(s.feedback_seq), int(s.command_seq), int(s.torso_seq))))
+    return None
