@@ -122,6 +122,11 @@ def convert(source: str | Path, out: str | Path, windows_s: Sequence[tuple[float
     return paths
 
 
+def run(args: argparse.Namespace) -> list[Path]:
+    """Import as the options say; LogImportError on a source that cannot be read."""
+    return convert(args.source, args.out, args.window or [(0.0, 21.0)], args.rate, args.decimate)
+
+
 def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
                   rate: Callable[[str], float] = float, factor: Callable[[str], int] = int) -> None:
     """The importer's options (`sparc-quad gap import panda` and `python -m` this module); `out`, `rate`,
@@ -135,13 +140,7 @@ def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
     add_decimate_and_window(p, factor, "decimation factor after resampling", " 21 s")
 
 
-def run(args: argparse.Namespace) -> list[Path]:
-    """Import as the options say; LogImportError on a source that cannot be read."""
-    return convert(args.source, args.out, args.window or [(0.0, 21.0)], args.rate, args.decimate)
-
-
-def main(argv: list[str] | None = None) -> int:
-    return importer_main("import_panda", __doc__.split("\n")[0], add_arguments, run, argv)
+main = importer_main("import_panda", __doc__, add_arguments, run)
 
 
 if __name__ == "__main__":

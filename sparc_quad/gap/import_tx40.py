@@ -136,6 +136,11 @@ def convert(source: str | Path, out: str | Path,
     return paths
 
 
+def run(args: argparse.Namespace) -> list[Path]:
+    """Import as the options say; LogImportError on a source that cannot be read."""
+    return convert(args.source, args.out, args.window or [(0.0, 9.0)], args.decimate, args.urdf)
+
+
 def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
                   factor: Callable[[str], int] = int) -> None:
     """The importer's options (`sparc-quad gap import tx40` and `python -m` this module); `out` and
@@ -147,13 +152,7 @@ def add_arguments(p: argparse.ArgumentParser, out: Callable[[str], Path] = Path,
     add_decimate_and_window(p, factor, "decimation factor (1: as recorded)", "")
 
 
-def run(args: argparse.Namespace) -> list[Path]:
-    """Import as the options say; LogImportError on a source that cannot be read."""
-    return convert(args.source, args.out, args.window or [(0.0, 9.0)], args.decimate, args.urdf)
-
-
-def main(argv: list[str] | None = None) -> int:
-    return importer_main("import_tx40", __doc__.split("\n")[0], add_arguments, run, argv)
+main = importer_main("import_tx40", __doc__, add_arguments, run)
 
 
 if __name__ == "__main__":

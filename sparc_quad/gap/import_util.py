@@ -83,17 +83,20 @@ def add_decimate_and_window(p: argparse.ArgumentParser, factor: Callable[[str], 
                    help=f"time window in s (repeatable; default the whole{whole_log} log)")
 
 
-def importer_main(module: str, description: str, add_arguments: Callable[[argparse.ArgumentParser], None],
-                  run: Callable[[argparse.Namespace], list[Path]], argv: Sequence[str] | None) -> int:
-    """`python -m sparc_quad.gap.<module>`: parse, import, print the trial paths; 2 on a LogImportError
-    (the same importer is `sparc-quad gap import ...`)."""
-    p = argparse.ArgumentParser(prog=f"python -m sparc_quad.gap.{module}", description=description)
-    add_arguments(p)
-    try:
-        paths = run(p.parse_args(argv))
-    except LogImportError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    for path in paths:
-        print(path)
-    return 0
+def importer_main(module: str, doc: str, add_arguments: Callable[[argparse.ArgumentParser], None],
+                  run: Callable[[argparse.Namespace], list[Path]]) -> Callable[..., int]:
+    """The `main(argv=None)` of `python -m sparc_quad.gap.<module>` (`doc`'s first line is its description):
+    parse, import, print the trial paths; 2 on a LogImportError. One for every importer, which then only
+    says its options and how to run them (the same two are `sparc-quad gap import ...`)."""
+    def main(argv: Sequence[str] | None = None) -> int:
+        p = argparse.ArgumentParser(prog=f"python -m sparc_quad.gap.{module}", description=doc.split("\n")[0])
+        add_arguments(p)
+        try:
+            paths = run(p.parse_args(argv))
+        except LogImportError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        for path in paths:
+            print(path)
+        return 0
+    return main
