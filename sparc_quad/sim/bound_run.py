@@ -430,12 +430,10 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     paths = []
-    s = result.series
     t = result.column("t")
     cfg = result.config
     run = (f"{cfg.world.host} in {cfg.world.engine}, spine {variant_of(cfg)}, k_x {cfg.spine.k[0]:g} N/m, "
            f"d_x {cfg.spine.d[0]:g} N*s/m")
-    outside = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8}  # legends off the data
     t_end = t[-1] if len(t) else 0.0
     t_from = max(0.0, t_end - 2.0)
     fig, ax = plt.subplots(figsize=(10, 2.6))
@@ -451,16 +449,11 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
     ax.set_xlim(t_from, t_end)
     fig.tight_layout()
     paths.append(_save(fig, out / "gait_diagram.png"))
-    fig, ax = plt.subplots(figsize=(10, 3.5))
-    ax.plot(t, result.column("q1_true"), label="hind body pitch q1 (true)")
-    ax.plot(t, result.column("q1_est"), lw=0.6, label="q1 (estimator)")
-    ax.plot(t, result.column("pitch_front"), label="front body pitch")
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("rad (+ nose down)")
-    ax.set_title(f"body pitch, whole run (0-{t_end:.1f} s); {run}", fontsize=9)
-    ax.legend(**outside)
-    fig.tight_layout()
-    paths.append(_save(fig, out / "body_pitch.png"))
+    paths.append(_series_plot(out / "body_pitch.png", t, [
+        ("hind body pitch q1 (true)", result.column("q1_true"), {}),
+        ("q1 (estimator)", result.column("q1_est"), {"lw": 0.6}),
+        ("front body pitch", result.column("pitch_front"), {}),
+    ], "rad (+ nose down)", f"body pitch, whole run (0-{t_end:.1f} s); {run}"))
     fig, axes = plt.subplots(3, 1, figsize=(10, 6), sharex=True)
     for ax, name, unit in zip(axes, ("x", "z", "theta"), ("m", "m", "rad"), strict=True):
         ax.plot(t, result.column(f"spine_{name}"))
@@ -469,16 +462,10 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
     axes[0].set_title(f"spine task pose (front body in the hind-body frame), whole run; {run}", fontsize=9)
     fig.tight_layout()
     paths.append(_save(fig, out / "spine_task_space.png"))
-    fig, ax = plt.subplots(figsize=(10, 3.5))
-    for k, name in enumerate(("tau2", "tau3", "tau4")):
-        ax.plot(t, s[:, COLUMNS.index(name)], lw=0.8, label=f"q{k + 2}")
-    ax.plot(t, result.column("leg_tau_max"), lw=0.5, color="grey", label="max |leg torque|")
-    ax.set_ylabel("N*m")
-    ax.set_xlabel("t (s)")
-    ax.set_title(f"spine joint torques and the largest leg torque, whole run; {run}", fontsize=9)
-    ax.legend(**outside)
-    fig.tight_layout()
-    paths.append(_save(fig, out / "torques.png"))
+    paths.append(_series_plot(out / "torques.png", t, [
+        *((f"q{j}", result.column(f"tau{j}"), {"lw": 0.8}) for j in (2, 3, 4)),
+        ("max |leg torque|", result.column("leg_tau_max"), {"lw": 0.5, "color": "grey"}),
+    ], "N*m", f"spine joint torques and the largest leg torque, whole run; {run}"))
     if result.frames:
         from matplotlib import animation
 
@@ -497,6 +484,23 @@ def write_plots(result: BoundResult, out: Path) -> list[Path]:
         plt.close(fig)
         paths.append(p)
     return paths
+
+
+def _series_plot(path: Path, t: np.ndarray, series: list[tuple[str, np.ndarray, dict]], ylabel: str,
+                 title: str) -> Path:
+    """One axes of named series (label, values, line style) against t, the legend off the data (body
+    pitch, torques): the figure, axis labels and legend spelled once, each plot only its series and title."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(10, 3.5))
+    for label, y, style in series:
+        ax.plot(t, y, label=label, **style)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
 
 
 def _save(fig, path: Path) -> Path:
