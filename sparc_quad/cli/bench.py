@@ -28,32 +28,39 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="reduced-size run (fewer values, shorter trials)")
 
 
+def _trials(per: str, default: int) -> dict[str, object]:
+    """--trials of an experiment that repeats trials: None unless given, so the config keeps its own
+    default (`default`, which the help names)."""
+    return {"type": in_range(1, TRIALS_MAX, kind=int), "default": None,
+            "help": f"trials per {per}, up to {TRIALS_MAX} (default: {default})"}
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="the paper's bench experiments (Table IV, Fig. 5, Fig. 7) in simulation",
                        description="Run the SPARC paper's bench experiments on the simulated bench. " + UNITS)
     bsub = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
-    s = bsub.add_parser("static", help="quasi-static push-pull, stiffness by OLS (Table IV, Fig. 4)",
-                        description="Push-pull along x; writes static.json, static.csv, static.png. " + UNITS)
-    add_gain_options(s, sweep=("kx",), defaults={"kx": P.BENCH_STATIC_K_X_N_M, **QUASI_STATIC})
-    s.add_argument("--controller", choices=["impedance", "pd"], default="impedance",
-                   help="impedance: eq. (2)-(4) with friction compensation; pd: task-space PD (Fig. 7)")
-    _common(s)
-    s.set_defaults(func=run_static)
-    d = bsub.add_parser("dynamic", help="displace 0.037 m and release (Fig. 5)",
-                        description="Release trials; writes dynamic.json and dynamic.png. " + UNITS)
-    add_gain_options(d, sweep=("kx", "dx"),
-                     defaults={"kx": P.BENCH_DYNAMIC_K_X_N_M, "dx": P.BENCH_DYNAMIC_D_X_N_S_M})
-    d.add_argument("--trials", type=in_range(1, TRIALS_MAX, kind=int), default=None,
-                   help=f"trials per case, up to {TRIALS_MAX} (default: 10)")
-    _common(d)
-    d.set_defaults(func=run_dynamic)
-    q = bsub.add_parser("pd", help="task-space PD vs impedance, quasi-static holds (Fig. 7)",
-                        description="Hand-held displacements; writes pd.json and pd.png. " + UNITS)
-    add_gain_options(q, sweep=("kx",), defaults={"kx": P.BENCH_PD_K_X_N_M, **QUASI_STATIC})
-    q.add_argument("--trials", type=in_range(1, TRIALS_MAX, kind=int), default=None,
-                   help=f"trials per k, up to {TRIALS_MAX} (default: 5)")
-    _common(q)
-    q.set_defaults(func=run_pd)
+    experiments = (  # name, help, what it writes, swept gains, gain defaults, its own option, run
+        ("static", "quasi-static push-pull, stiffness by OLS (Table IV, Fig. 4)",
+         "Push-pull along x; writes static.json, static.csv, static.png.",
+         ("kx",), {"kx": P.BENCH_STATIC_K_X_N_M, **QUASI_STATIC},
+         ("--controller", {"choices": ["impedance", "pd"], "default": "impedance",
+                           "help": "impedance: eq. (2)-(4) with friction compensation; pd: task-space PD "
+                                   "(Fig. 7)"}), run_static),
+        ("dynamic", "displace 0.037 m and release (Fig. 5)",
+         "Release trials; writes dynamic.json and dynamic.png.",
+         ("kx", "dx"), {"kx": P.BENCH_DYNAMIC_K_X_N_M, "dx": P.BENCH_DYNAMIC_D_X_N_S_M},
+         ("--trials", _trials("case", 10)), run_dynamic),
+        ("pd", "task-space PD vs impedance, quasi-static holds (Fig. 7)",
+         "Hand-held displacements; writes pd.json and pd.png.",
+         ("kx",), {"kx": P.BENCH_PD_K_X_N_M, **QUASI_STATIC},
+         ("--trials", _trials("k", 5)), run_pd),
+    )
+    for name, help_, writes, sweep, defaults, (flag, option), func in experiments:
+        e = bsub.add_parser(name, help=help_, description=f"{writes} {UNITS}")
+        add_gain_options(e, sweep=sweep, defaults=defaults)
+        e.add_argument(flag, **option)
+        _common(e)
+        e.set_defaults(func=func)
     a = bsub.add_parser("all", help="static, dynamic and pd in one go",
                         description="All three experiments into one folder. " + UNITS)
     _common(a)
