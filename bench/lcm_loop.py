@@ -20,7 +20,9 @@ with `unshare`, as the tests do):
    lockstep wall (goal >= 0.5) with both commands' defaults except the URL: the co-simulation's
    `channels.COSIM_URL` (LCM's multi-port provider) on both sides. Beside it, the same with the default
    `udpm` URL (`lcm_lockstep_udpm_*`) and with both sides polling 1000 us before they block
-   (`--spin-us`, for peers on CPUs of their own; `lcm_lockstep_spin_*`). The commands' defaults hold the
+   (`--spin-us`, for peers on CPUs of their own; `lcm_lockstep_spin_*`), and with the robot also receiving
+   the node's 1 kHz spine states (`bound --lcm-node-states`, off by default; `lcm_lockstep_node_states_*`).
+   The commands' defaults hold the
    CPUs' wake latency at 0 us (PM QoS) while they run, where the user may (root); `wake_latency_held`
    says whether it was. The two processes are pinned to two different CPUs (`taskset`), as a node on its
    own torso computer would be: unpinned, Linux wakes the node on the robot's CPU (wake-affine) and the
@@ -121,11 +123,11 @@ def _pin_cpus() -> tuple[int, int] | None:
 
 
 def lcm_bound(duration_s: float, pin: tuple[int, int] | None, keep: Path | None = None,
-              spin_us: float | None = None, url: str | None = None) -> float:
+              spin_us: float | None = None, url: str | None = None, node_states: bool = False) -> float:
     """Wall time of `run_bound` in the robot process (its metrics' `wall_time_s`) of a `bound --lcm` run
     against a lockstep spine node, two processes in a network namespace; `keep`: copy its CSV there;
     `spin_us`: both sides' lockstep poll before blocking; `url`: both sides' LCM URL (None: the commands'
-    defaults)."""
+    defaults); `node_states`: the robot also receives the node's spine states (`--lcm-node-states`)."""
     py = shlex.quote(sys.executable)
     node_pin, robot_pin = (f"taskset -c {pin[0]} ", f"taskset -c {pin[1]} ") if pin else ("", "")
     node_spin = robot_spin = ""
@@ -134,6 +136,8 @@ def lcm_bound(duration_s: float, pin: tuple[int, int] | None, keep: Path | None 
     if url is not None:
         node_spin += f"--lcm-url {shlex.quote(url)} "
         robot_spin += f"--lcm-url {shlex.quote(url)} "
+    if node_states:
+        robot_spin += "--lcm-node-states "
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         script = (f"set -e\n{SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}\n"
@@ -168,7 +172,7 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
 
     pin = _pin_cpus()
     cfg = BoundConfig(duration_s=duration_s)
-    inproc, lcm_pinned, lcm_udpm, lcm_free, lcm_spin = [], [], [], [], []
+    inproc, lcm_pinned, lcm_udpm, lcm_free, lcm_spin, lcm_states = [], [], [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         csv = Path(tmp) / "lcm.csv"
         for i in range(repeat):
@@ -176,6 +180,7 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
             lcm_pinned.append(lcm_bound(duration_s, pin, keep=csv if i == 0 else None, url=COSIM_URL))
             lcm_udpm.append(lcm_bound(duration_s, pin))
             lcm_spin.append(lcm_bound(duration_s, pin, spin_us=DEDICATED_CPU_SPIN_S * 1e6, url=COSIM_URL))
+            lcm_states.append(lcm_bound(duration_s, pin, url=COSIM_URL, node_states=True))
         if unpinned and pin is not None:
             lcm_free.append(lcm_bound(duration_s, None, url=COSIM_URL))
         lcm_series = np.loadtxt(csv, delimiter=",", skiprows=1)
@@ -195,13 +200,16 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
         "lcm_lockstep_udpm_over_in_process": best_in / min(lcm_udpm),
         "lcm_lockstep_spin_us": DEDICATED_CPU_SPIN_S * 1e6,
         "lcm_lockstep_spin_over_in_process": best_in / min(lcm_spin),
+        "lcm_lockstep_node_states_bound_wall_s": min(lcm_states),
+        "lcm_lockstep_node_states_over_in_process": best_in / min(lcm_states),
         "lcm_lockstep_us_per_tick_over_in_process": 1e6 * (best_lcm - best_in) / round(duration_s * 1000),
         "lcm_pinned_cpus_node_robot": list(pin) if pin else None,
         "lcm_lockstep_unpinned_wall_s": min(lcm_free) if lcm_free else None,
         "lcm_lockstep_unpinned_over_in_process": best_in / min(lcm_free) if lcm_free else None,
         "lcm_vs_node_in_process_max_abs_diff": diff,
         "bound_all_runs_s": {"in_process": inproc, "lcm_lockstep": lcm_pinned, "lcm_lockstep_udpm": lcm_udpm,
-                             "lcm_lockstep_spin": lcm_spin, "lcm_unpinned": lcm_free},
+                             "lcm_lockstep_spin": lcm_spin, "lcm_lockstep_node_states": lcm_states,
+                             "lcm_unpinned": lcm_free},
     }
 
 

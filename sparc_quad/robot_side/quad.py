@@ -81,9 +81,15 @@ class NodeSpine:
 
     @classmethod
     def over_lcm(cls, gains: SpineGains, friction: bool = False, url: str = "", lockstep: bool = True,
-                 wait_node_s: float = 30.0, spin_s: float = 0.0, **kw) -> NodeSpine:
-        """`spin_s`: how long a lockstep wait for the node's answer polls before it blocks (0: at once)."""
-        spine = cls(LcmPort(url, spin_s=spin_s), gains, friction, lockstep=lockstep, **kw)
+                 wait_node_s: float = 30.0, spin_s: float = 0.0, node_states: bool = False,
+                 **kw) -> NodeSpine:
+        """`spin_s`: how long a lockstep wait for the node's answer polls before it blocks (0: at once).
+        `node_states`: also receive the node's spine states (SPARC_SPINE_STATE, every tick) and keep them
+        for `node_states()`. Off by default: each state wakes LCM's receiving thread in this process, beside
+        the simulation, and on the 2-vCPU machine measured that cost the robot process ~30 % of its CPU
+        time per tick (docs/performance.md, "LCM lockstep"); `lcm-logger` records them outside it."""
+        spine = cls(LcmPort(url, keep_states=node_states, spin_s=spin_s), gains, friction, lockstep=lockstep,
+                    **kw)
         if not spine.robot.wait_for_node(wait_node_s):  # tick 0 must not be published into the void
             spine.port.close()
             raise TimeoutError(f"no heartbeat from a spine node within {wait_node_s:g} s")
@@ -129,11 +135,20 @@ class NodeSpine:
             return self._final_states
         if self.node_io is not None:
             return list(self.node_io.states)
-        if isinstance(self.port, LcmPort):
+        if isinstance(self.port, LcmPort) and self.port.keep_states:
             return self.port.drain_states(0.3)
         return []
 
-    def node_states(self) -> dict[str, np.ndarray]:
+    @property
+    def records_states(self) -> bool:
+        """Whether this spine sees the node's states (in process: always; over LCM: when asked for)."""
+        return self.node_io is not None or (isinstance(self.port, LcmPort) and self.port.keep_states)
+
+    def node_states(self) -> dict[str, np.ndarray] | None:
+        """The node's states as arrays with the q1 the robot sent each tick (`robot_sent_q1`); None over
+        LCM when the states were not received (`over_lcm(node_states=False)`, the default)."""
+        if not self.records_states:
+            return None
         st = self.states()
         out = states_arrays(st) if st else {}
         out["robot_sent_q1"] = np.array(self.sent_q1)

@@ -92,3 +92,23 @@ def test_reading_lcm_port_rejected_decodes_nothing():
     assert port._states == [] and len(port._raw_states) == 2  # reading `rejected` decoded no state
     assert [s.seq for s in port.states] == [3] and port.rejected == 2
     assert [s.seq for s in port.states] == [3] and port.rejected == 2  # each state decoded and counted once
+
+
+def test_a_node_spine_over_lcm_receives_the_node_states_only_when_asked():
+    from sparc_quad.robot_side.quad import NodeSpine
+    from sparc_quad.sim.spine_drive import SpineGains
+
+    gains = SpineGains()
+    for asked in (False, True):
+        lc = lcm.LCM("memq://")
+        spine = NodeSpine(LcmPort(lc=lc, keep_states=asked), gains)
+        lc.publish(channels.SPINE_STATE, codec.encode_state(SpineState(seq=3)))
+        while lc.handle_timeout(0) > 0:
+            pass
+        assert spine.records_states is asked
+        states = spine.node_states()
+        if asked:
+            assert states["node_seq"].tolist() == [3]
+        else:
+            assert states is None and spine.port._raw_states == []  # never subscribed
+        spine.close()

@@ -5,7 +5,9 @@ test creates, in lockstep, against the same bound with the node in process.
 Asserts: no fall and forward progress both ways; every tick answered; the node's q1 is the estimator's q1
 (noise, bias and delay included) on every tick; the LCM trajectory equals the in-process one.
 Run on LCM's default provider (udpm, the URL every LCM tool uses) and on the co-simulation's
-(`channels.COSIM_URL`, mpudpm). Reduced size (2.5 s of bounding) to keep the default suite short.
+(`channels.COSIM_URL`, mpudpm); the first run also receives the node's spine states (`--lcm-node-states`),
+the second does not (the default) and writes no node_states.npz. Reduced size (2.5 s of bounding) to keep
+the default suite short.
 """
 
 from __future__ import annotations
@@ -36,19 +38,21 @@ def lcm_run(request, tmp_path_factory):
     out = tmp_path_factory.mktemp("quad_lcm")
     py = shlex.quote(sys.executable)
     url = f"--lcm-url {shlex.quote(channels.COSIM_URL)} " if request.param == "cosim" else ""
+    states = request.param == "default"  # the robot also receives the node's spine states
+    states_opt = "--lcm-node-states " if states else ""
     script = f"""
 export PYTHONPATH={shlex.quote(str(ROOT))}
 {py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 3 {url}\
     --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
 NODE=$!
-{py} -m sparc_quad bound --lcm {url}--duration {DURATION} --out {out}/bound \
+{py} -m sparc_quad bound --lcm {url}{states_opt}--duration {DURATION} --out {out}/bound \
     > {out}/robot.out 2> {out}/robot.err
 wait $NODE
 """
     r = run_in_netns(script, ROOT, timeout_s=240)
     logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
     assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"
-    return out, logs
+    return out, logs, states
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +67,7 @@ def _series(path: Path) -> tuple[list[str], np.ndarray]:
 
 
 def test_both_bound_without_falling_and_move_forward(lcm_run, inprocess_run):
-    out, logs = lcm_run
+    out, logs, _ = lcm_run
     m = json.loads((out / "bound" / "metrics.json").read_text())
     assert not m["fell"], logs
     assert m["distance_m"] > 0.2
@@ -71,10 +75,13 @@ def test_both_bound_without_falling_and_move_forward(lcm_run, inprocess_run):
 
 
 def test_every_tick_answered_and_node_used_the_estimators_q1(lcm_run):
-    out, logs = lcm_run
+    out, logs, states_asked = lcm_run
     node = json.loads((out / "node.json").read_text())
     ticks = round(DURATION * 1000)
     assert node["ticks"] == ticks and node["rejected"] == 0, logs
+    if not states_asked:
+        assert not (out / "bound" / "node_states.npz").exists()  # not asked for: not received
+        return
     states = np.load(out / "bound" / "node_states.npz")
     header, s = _series(out / "bound" / "timeseries.csv")
     q1_est, q1_true = s[:, header.index("q1_est")], s[:, header.index("q1_true")]
@@ -87,7 +94,7 @@ def test_every_tick_answered_and_node_used_the_estimators_q1(lcm_run):
 
 
 def test_lockstep_over_lcm_equals_inprocess(lcm_run, inprocess_run):
-    out, _ = lcm_run
+    out, _, _ = lcm_run
     header, s = _series(out / "bound" / "timeseries.csv")
     ref = inprocess_run.series
     assert s.shape == ref.shape
