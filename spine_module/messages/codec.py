@@ -11,7 +11,7 @@ import functools
 import math
 import struct
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from io import BytesIO
 from typing import ParamSpec
 
@@ -266,6 +266,20 @@ def _us(stamp_s: float) -> int:
     return round(stamp_s * 1e6)
 
 
+# The fast decoders build their dataclasses positionally (keywords cost ~1 us a message in a dataclass
+# __init__ with default factories): in these field orders, checked here.
+_POSITIONAL = {
+    TorsoState: ("q1", "dq1", "ddq1", "ddq1_valid", "quat", "omega", "stamp_s", "seq", "base_accel",
+                 "base_accel_valid"),
+    SpineCommand: ("mode", "x_d", "dx_d", "ddx_d", "k", "d", "friction_compensation", "tau_ff", "reset",
+                   "stamp_s", "seq"),
+    MotorFeedback: ("q", "dq", "tau", "temperature_c", "mode", "fault", "load_cell_n", "stamp_s", "seq"),
+}
+for _cls, _order in _POSITIONAL.items():
+    if tuple(f.name for f in fields(_cls)) != _order:
+        raise ImportError(f"{_cls.__name__}'s fields changed order: update codec's fast decoders")
+
+
 # --- per-type decode (validated) ------------------------------------------------------------------
 # Each fast decoder: one struct call (`Layout.unpack`), then its `Bounds.check` (one vectorised
 # comparison, or the named error). Bytes that are not one well-formed message of the type go to the
@@ -305,11 +319,9 @@ def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState
         raise _not_unit(channel, norm)
     quat = v[a:a + 4]
     quat /= norm
-    return TorsoState(q1=vals[_T_Q1], dq1=vals[_T_DQ1], ddq1=vals[_T_DDQ1] if valid else 0.0,
-                      ddq1_valid=valid, quat=quat, omega=v[_T_OMEGA:_T_OMEGA + 3],
-                      stamp_s=_s(vals[_T_UTIME]), seq=vals[_T_SEQ],
-                      base_accel=v[_T_BACC:_T_BACC + 3] if base_valid else np.zeros(3),
-                      base_accel_valid=base_valid)
+    return TorsoState(vals[_T_Q1], vals[_T_DQ1], vals[_T_DDQ1] if valid else 0.0, valid, quat,
+                      v[_T_OMEGA:_T_OMEGA + 3], _s(vals[_T_UTIME]), vals[_T_SEQ],
+                      v[_T_BACC:_T_BACC + 3] if base_valid else np.zeros(3), base_valid)
 
 
 def decode_torso_checked(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState:
@@ -343,10 +355,9 @@ def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineC
     if vals is None:
         return decode_command_checked(data, channel)
     v = _COMMAND_BOUNDS.check(channel, vals)
-    return SpineCommand(mode=MODES[vals[_C_MODE]], x_d=v[_C_X_D:_C_X_D + 3], dx_d=v[_C_DX_D:_C_DX_D + 3],
-                        ddx_d=v[_C_DDX_D:_C_DDX_D + 3], k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
-                        friction_compensation=vals[_C_FRICTION] != 0, tau_ff=v[_C_TAU_FF:_C_TAU_FF + 3],
-                        reset=vals[_C_RESET] != 0, stamp_s=_s(vals[_C_UTIME]), seq=vals[_C_SEQ])
+    return SpineCommand(MODES[vals[_C_MODE]], v[_C_X_D:_C_X_D + 3], v[_C_DX_D:_C_DX_D + 3],
+                        v[_C_DDX_D:_C_DDX_D + 3], v[_C_K:_C_K + 3], v[_C_D:_C_D + 3], vals[_C_FRICTION] != 0,
+                        v[_C_TAU_FF:_C_TAU_FF + 3], vals[_C_RESET] != 0, _s(vals[_C_UTIME]), vals[_C_SEQ])
 
 
 def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
@@ -400,12 +411,11 @@ def decode_motor_feedback(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -
     if vals is None:
         return decode_motor_feedback_checked(data, channel)
     v = _FEEDBACK_BOUNDS.check(channel, vals)
-    return MotorFeedback(q=v[_F_ANGLE:_F_ANGLE + 3], dq=v[_F_VELOCITY:_F_VELOCITY + 3],
-                         tau=v[_F_TORQUE:_F_TORQUE + 3], temperature_c=v[_F_TEMPERATURE:_F_TEMPERATURE + 3],
-                         mode=np.array(vals[_F_MODE:_F_MODE + 3], dtype=np.int32),
-                         fault=np.array(vals[_F_FAULT:_F_FAULT + 3], dtype=np.int32),
-                         load_cell_n=v[_F_LOAD_CELL:_F_LOAD_CELL + 2], stamp_s=_s(vals[_F_UTIME]),
-                         seq=vals[_F_SEQ])
+    return MotorFeedback(v[_F_ANGLE:_F_ANGLE + 3], v[_F_VELOCITY:_F_VELOCITY + 3], v[_F_TORQUE:_F_TORQUE + 3],
+                         v[_F_TEMPERATURE:_F_TEMPERATURE + 3],
+                         np.array(vals[_F_MODE:_F_MODE + 3], dtype=np.int32),
+                         np.array(vals[_F_FAULT:_F_FAULT + 3], dtype=np.int32),
+                         v[_F_LOAD_CELL:_F_LOAD_CELL + 2], _s(vals[_F_UTIME]), vals[_F_SEQ])
 
 
 def decode_motor_feedback_checked(data: bytes, channel: str = channels.MOTOR_FEEDBACK) -> MotorFeedback:
