@@ -318,7 +318,8 @@ def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState
     if not 0.9 <= norm <= 1.1:
         raise _not_unit(channel, norm)
     quat = v[a:a + 4]
-    quat /= norm
+    if norm != 1.0:  # x / 1.0 is x: a unit quaternion as sent is kept as it is
+        quat /= norm
     return TorsoState(vals[_T_Q1], vals[_T_DQ1], vals[_T_DDQ1] if valid else 0.0, valid, quat,
                       v[_T_OMEGA:_T_OMEGA + 3], _s(vals[_T_UTIME]), vals[_T_SEQ],
                       v[_T_BACC:_T_BACC + 3] if base_valid else np.zeros(3), base_valid)
@@ -645,6 +646,9 @@ if tuple(spine_state_t.__slots__) != (
     raise RuntimeError("spine_state_t changed: update codec.encode_state's field order")
 _STATE_HEAD, _STATE_TAIL = _STATE.parts[0][0], _STATE.parts[2][0]  # the runs before and after `rejected`
 _U32 = struct.Struct(">I")
+# the usual state, with nothing rejected: head, the empty string (length 1, its NUL) and tail in one struct
+_STATE_NOTHING_REJECTED = struct.Struct(
+    ">" + _STATE_HEAD.format.lstrip(">") + "Ix" + _STATE_TAIL.format.lstrip(">"))
 
 
 def encode_state_checked(s: SpineState) -> bytes:
@@ -667,7 +671,14 @@ def encode_state(s: SpineState) -> bytes | None:
     temperature = s.temperature.tolist()
     if (len(q) == 4 and len(dq) == 4 and len(tau_cmd) == 3 and len(tau_est) == 3 and len(x) == 3
             and len(dx) == 3 and len(load_cell) == 2 and len(temperature) == 3):
-        rejected = s.rejected.encode("utf-8")
+        rejected = s.rejected
+        if not rejected:
+            return _STATE.fingerprint + _STATE_NOTHING_REJECTED.pack(
+                _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode), int(s.faults), 1,
+                *q, *dq, *tau_cmd, *tau_est, *x, *dx, float(s.gain_scale), *load_cell, *temperature,
+                float(s.period), float(s.jitter_max), float(s.compute), int(s.feedback_seq),
+                int(s.command_seq), int(s.torso_seq))
+        rejected = rejected.encode("utf-8")
         return b"".join((
             _STATE.fingerprint,
             _STATE_HEAD.pack(_us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode),
