@@ -143,6 +143,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "heartbeat")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--out", type=output_dir, default=Path("out/bound"), help="output folder")
+    p.set_defaults(lcm_only_defaults={name: p.get_default(name) for name in LCM_ONLY})
     p.add_argument("--video", action="store_true", help="also render bound.gif (pybullet ER_TINY_RENDERER)")
     p.add_argument("--no-plots", action="store_true",
                    help="write metrics.json and timeseries.csv only (no PNGs; matplotlib is not imported)")
@@ -248,8 +249,23 @@ def speed_warning(metrics: dict, target_m_s: float | None) -> str | None:
             "m/s: the gait did not reach the commanded speed")
 
 
+# options that act only with --lcm: given without it they would be ignored, so they are refused
+LCM_ONLY = ("lcm_url", "lcm_node_states", "lcm_spin_us", "lcm_wake_latency_us", "wait_node")
+
+
+def lcm_only_given(args: argparse.Namespace) -> list[str]:
+    """The --lcm options set to something other than their default (`--lcm-url` given as the default URL
+    is not told apart: it changes nothing)."""
+    return [f"--{name.replace('_', '-')}" for name, default in args.lcm_only_defaults.items()
+            if getattr(args, name) != default]
+
+
 def run(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bound_run import run_bound, write_outputs
+
+    if not args.lcm and lcm_only_given(args):
+        raise BadInput(f"{', '.join(lcm_only_given(args))} act only with --lcm (the spine node in another "
+                       "process); add --lcm or leave them out")
 
     if args.video and args.no_plots:
         raise BadInput("--video renders bound.gif with matplotlib: it cannot be combined with --no-plots")

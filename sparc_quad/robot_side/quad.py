@@ -135,7 +135,7 @@ class NodeSpine:
             return self._final_states
         if self.node_io is not None:
             return list(self.node_io.states)
-        if isinstance(self.port, LcmPort) and self.port.keep_states:
+        if self.records_states:  # over LCM, asked for
             return self.port.drain_states(0.3)
         return []
 

@@ -671,20 +671,14 @@ def encode_state(s: SpineState) -> bytes | None:
     temperature = s.temperature.tolist()
     if (len(q) == 4 and len(dq) == 4 and len(tau_cmd) == 3 and len(tau_est) == 3 and len(x) == 3
             and len(dx) == 3 and len(load_cell) == 2 and len(temperature) == 3):
-        rejected = s.rejected
-        if not rejected:
-            return _STATE.fingerprint + _STATE_NOTHING_REJECTED.pack(
-                _us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode), int(s.faults), 1,
-                *q, *dq, *tau_cmd, *tau_est, *x, *dx, float(s.gain_scale), *load_cell, *temperature,
+        head = (_us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode), int(s.faults))
+        tail = (*q, *dq, *tau_cmd, *tau_est, *x, *dx, float(s.gain_scale), *load_cell, *temperature,
                 float(s.period), float(s.jitter_max), float(s.compute), int(s.feedback_seq),
                 int(s.command_seq), int(s.torso_seq))
+        rejected = s.rejected
+        if not rejected:  # the usual state: one struct, the empty string's length 1 in it
+            return _STATE.fingerprint + _STATE_NOTHING_REJECTED.pack(*head, 1, *tail)
         rejected = rejected.encode("utf-8")
-        return b"".join((
-            _STATE.fingerprint,
-            _STATE_HEAD.pack(_us(s.stamp_s), int(s.seq), int(s.mode), int(s.requested_mode),
-                             int(s.faults)),
-            _U32.pack(len(rejected) + 1), rejected, b"\0",
-            _STATE_TAIL.pack(*q, *dq, *tau_cmd, *tau_est, *x, *dx, float(s.gain_scale), *load_cell,
-                             *temperature, float(s.period), float(s.jitter_max), float(s.compute),
-                             int(s.feedback_seq), int(s.command_seq), int(s.torso_seq))))
+        return b"".join((_STATE.fingerprint, _STATE_HEAD.pack(*head), _U32.pack(len(rejected) + 1), rejected,
+                         b"\0", _STATE_TAIL.pack(*tail)))
     return None

@@ -43,6 +43,8 @@ def _cases(tmp: Path) -> list[tuple[str, list[str]]]:
         ("LCM URL", ["spine-node", "--lcm-url", ""]),
         ("LCM URL", ["spine-cmd", "--lcm-url", "nonsense"]),
         ("LCM URL", ["bound", "--lcm", "--lcm-url", "http://x"]),
+        *[("an --lcm option without --lcm", ["bound", *opt]) for opt in
+          (["--lcm-node-states"], ["--lcm-spin-us", "10"], ["--wait-node", "3"], ["--lcm-url", "memq://"])],
         ("the authors' twist, no estimate delay", ["bound", "--host", "spined-dog", "--engine", "mujoco",
                                                    "--gait", "sine", "--imu-delay", "0"]),
         ("the same on Solo12", ["bound", "--host", "solo12", "--engine", "mujoco", "--base-motion",
