@@ -223,6 +223,7 @@ class QuadWorld(ABC):
         self.n_engine_joints = len(self.joint_index)
         self.spine_idx = [self.joint_index[n] for n in self.meta["spine_joints"]]
         self._spine_pos = tuple(self.pos_in_movable[j] for j in self.spine_idx)  # q2, q3, q4 in jq
+        self._spine_of = operator.itemgetter(*self._spine_pos)  # jq -> (q2, q3, q4)
         self.leg_idx = {
             k: (ABSENT if v["haa"] is None else self.joint_index[v["haa"]], self.joint_index[v["hfe"]],
                 self.joint_index[v["kfe"]])

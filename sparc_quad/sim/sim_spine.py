@@ -113,9 +113,8 @@ class DirectSpine:
         tick = self._tick
         if tick is None or tick():
             q, dq = self._q, self._dq
-            q[0], dq[0] = est.q1, est.dq1
-            q[1:] = q_spine
-            dq[1:] = dq_spine
+            q[0], q[1], q[2], q[3] = est.q1, *q_spine  # item by item: half a slice assignment's cost
+            dq[0], dq[1], dq[2], dq[3] = est.dq1, *dq_spine
             ddq1 = est.ddq1 if self._torso_accel else 0.0
             base = est.base_accel  # None: the estimate has none (WorldConfig.base_motion "fixed")
             acc = None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from math import atan2
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,6 @@ from sparc_quad.sim.quadruped_world import (
     ABSENT,
     QuadWorld,
     WorldConfig,
-    pitch_of,
     quat_about_y,
 )
 
@@ -62,7 +62,7 @@ class PybulletWorld(QuadWorld):
                 joint_index[info[1].decode()] = i
         self._index_joints(joint_index)
         self.engine_joints = [j for j in self.movable if j != ABSENT]  # the joints pybullet drives
-        self._pad = [0.0] * (len(self.movable) - len(self.engine_joints))  # an absent joint reads 0
+        self._pad = (0.0,) * (len(self.movable) - len(self.engine_joints))  # an absent joint reads 0
         # Default velocity motors off: every joint is torque controlled.
         pb.setJointMotorControlArray(self.robot, self.engine_joints, pb.VELOCITY_CONTROL,
                                      forces=[0.0] * len(self.engine_joints), physicsClientId=c)
@@ -187,16 +187,21 @@ class PybulletWorld(QuadWorld):
         self.base_quat = quat
         self.base_rot = rot
         self.base_omega = w
-        self.q1 = pitch_of(quat)
+        x, y, z, qw = quat  # pitch_of(quat), inline (the same expressions: the same doubles)
+        self.q1 = atan2(-(2 * (x * z - qw * y)), 1 - 2 * (y * y + z * z))
         self.dq1 = w[1]
-        self.roll = math.atan2(rot[7], rot[8])
-        self.yaw = math.atan2(rot[3], rot[0])
+        self.roll = atan2(rot[7], rot[8])
+        self.yaw = atan2(rot[3], rot[0])
+        # positions and rates in one pass in C (tuples: nothing downstream writes into them)
         js = pb.getJointStates(self.robot, self.engine_joints, physicsClientId=c)
-        self.jq = jq = [s[0] for s in js] + self._pad
-        self.jdq = jdq = [s[1] for s in js] + self._pad
-        a, b, d = self._spine_pos
-        self.q_spine = [jq[a], jq[b], jq[d]]
-        self.dq_spine = [jdq[a], jdq[b], jdq[d]]
+        jq, jdq, _, _ = zip(*js, strict=True)
+        pad = self._pad
+        if pad:
+            jq, jdq = jq + pad, jdq + pad
+        self.jq, self.jdq = jq, jdq
+        spine = self._spine_of
+        self.q_spine = spine(jq)
+        self.dq_spine = spine(jdq)
         contacts = pb.getContactPoints(bodyA=self.robot, bodyB=self.ground, physicsClientId=c)
         self.contact_force = force = dict.fromkeys(self.legs, 0.0)
         self.other_contact = False
