@@ -16,7 +16,10 @@ from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, Motor
 
 class InProcessLink:
     def __init__(self) -> None:
-        self._cv = threading.Condition()
+        # a plain lock taken directly (`with link._lock`, a C-level context manager: the Condition's own
+        # __enter__ is a Python frame per use); the condition waits and notifies on the same lock
+        self._lock = threading.Lock()
+        self._cv = threading.Condition(self._lock)
         self._feedback: MotorFeedback | None = None
         self._command: tuple[MotorCommand, int] | None = None
         self.dropped_feedback = 0  # feedback overwritten before the node read it
@@ -34,7 +37,7 @@ class RobotEnd:
 
     def publish_feedback(self, fb: MotorFeedback) -> None:
         link = self._link
-        with link._cv:
+        with link._lock:
             if link._feedback is not None:
                 link.dropped_feedback += 1
             link._feedback = fb.copy()
@@ -44,7 +47,7 @@ class RobotEnd:
     def take_command(self, timeout_s: float | None = 0.0) -> tuple[MotorCommand, int] | None:
         """Newest command not yet taken and the feedback seq it answers (-1 if none), or None."""
         link = self._link
-        with link._cv:
+        with link._lock:
             if link._command is None and timeout_s:
                 link.waiting += 1
                 try:
@@ -66,7 +69,7 @@ class InProcessBus(MotorBus):
         link = self.link
         if link.closed:
             raise MotorBusError("in-process link is closed")
-        with link._cv:
+        with link._lock:
             if link._command is not None:
                 link.dropped_commands += 1
             link._command = (command.copy(), self._last_feedback_seq)
@@ -75,7 +78,7 @@ class InProcessBus(MotorBus):
 
     def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
         link = self.link
-        with link._cv:
+        with link._lock:
             if link._feedback is None and (timeout_s is None or timeout_s > 0):
                 deadline = None if timeout_s is None else time.monotonic() + timeout_s
                 link.waiting += 1
