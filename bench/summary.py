@@ -6,9 +6,12 @@ usage: python bench/summary.py [DIR]   (default out/bench; a missing file is rep
 from __future__ import annotations
 
 import json
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
+
+from bench_io import cpu_model
 
 # (file, label, value from the JSON, goal text, met?)
 Row = tuple[str, str, Callable[[dict], float | None], str, Callable[[float], bool]]
@@ -58,7 +61,8 @@ def main(argv: list[str]) -> int:
         print(f"{label:46s} {value:10.3f}  {goal:>11s}  {met}")
     load = Path("/proc/loadavg")
     if load.exists():
-        print(f"load average now: {' '.join(load.read_text().split()[:3])} (2 cores)")
+        now = " ".join(load.read_text().split()[:3])
+        print(f"load average now: {now} ({os.cpu_count()} CPUs: {cpu_model()})")
     return 0
 
 

@@ -18,14 +18,14 @@ from tests.gap_helpers import check_named, run_case
 PAIR = ["coulomb_friction:joint=q2,tau_c_nm=0.2", "torque_gain:joint=q3,gain=0.9"]
 
 
-@pytest.mark.parametrize("seed", (21, 22))
+@pytest.mark.parametrize("seed", (21, pytest.param(22, marks=pytest.mark.slow)))
 def test_pair_both_named(tmp_path, seed):
     rep, hidden = run_case(tmp_path, PAIR, seed)
     errs = check_named(rep, hidden)
     assert not errs, errs
 
 
-@pytest.mark.parametrize("seed", (31, 32))
+@pytest.mark.parametrize("seed", (31, pytest.param(32, marks=pytest.mark.slow)))
 def test_nothing_hidden_names_nothing(tmp_path, seed):
     rep, _ = run_case(tmp_path, [], seed)
     assert rep["effects"] == [] and rep["ambiguous"] == []
