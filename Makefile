@@ -20,9 +20,10 @@ install: $(STAMP)
 demo: install
 	$(BIN)/sparc-quad demo --out $(OUT)
 
+# the default suite on every CPU (pytest-xdist): each test file runs whole, in order, in one worker
 test: install
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow" -n auto --dist loadfile
 
 # the unit tier (under a minute): no slow studies, no multi-process or end-to-end workflow tests
 test-unit: install
