@@ -27,7 +27,7 @@ test: install
 
 # the unit tier (under a minute): no slow studies, no multi-process or end-to-end workflow tests
 test-unit: install
-	$(BIN)/python -m pytest -q -m "not slow and not integration"
+	$(BIN)/python -m pytest -q -m "not slow and not integration" -n auto --dist loadfile
 
 test-slow: install
 	$(BIN)/python -m pytest -q -m slow
