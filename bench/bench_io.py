@@ -7,12 +7,10 @@ import os
 import platform
 from pathlib import Path
 
-import pinocchio as pin
-
 
 def cpu_model() -> str:
-    """The CPU's model name (/proc/cpuinfo; else `platform.processor()`). The ratios depend on it: the same
-    code gave a bound physics share of 0.56-0.58 on an Intel Xeon VM and 0.46-0.49 on an AMD EPYC one."""
+    """The CPU's model name (/proc/cpuinfo; else `platform.processor()`): the same code's ratios differ from
+    one host CPU to another (docs/results/2026-12-03-amd-host.md)."""
     info = Path("/proc/cpuinfo")
     if info.exists():
         for line in info.read_text().splitlines():
@@ -23,6 +21,8 @@ def cpu_model() -> str:
 
 def host_facts() -> dict[str, object]:
     """Load average (1, 5, 15 min), Python, pinocchio, machine and CPU model: what a ratio was measured on."""
+    import pinocchio as pin  # here, not at import: bench/summary.py needs only cpu_model
+
     load = Path("/proc/loadavg")
     return {"loadavg": load.read_text().split()[:3] if load.exists() else None,
             "python": platform.python_version(), "pinocchio": pin.__version__, "machine": platform.machine(),

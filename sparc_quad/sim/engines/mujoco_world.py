@@ -252,9 +252,9 @@ class MujocoWorld(QuadWorld):
         else:
             self.jq = jq = [qp[i] for i in self._qadr_list] + self._pad
             self.jdq = jdq = [qv[i] for i in self._dadr_list] + self._pad
-        a, b, c = self._spine_pos
-        self.q_spine = [jq[a], jq[b], jq[c]]
-        self.dq_spine = [jdq[a], jdq[b], jdq[c]]
+        spine = self._spine_of
+        self.q_spine = spine(jq)
+        self.dq_spine = spine(jdq)
         self._read_contacts()
 
     def base_twist(self) -> tuple[float, ...]:

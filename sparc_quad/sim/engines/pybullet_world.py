@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import time
-from math import atan2
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ from sparc_quad.sim.quadruped_world import (
     ABSENT,
     QuadWorld,
     WorldConfig,
+    pitch_of,
     quat_about_y,
 )
 
@@ -187,11 +187,10 @@ class PybulletWorld(QuadWorld):
         self.base_quat = quat
         self.base_rot = rot
         self.base_omega = w
-        x, y, z, qw = quat  # pitch_of(quat), inline (the same expressions: the same doubles)
-        self.q1 = atan2(-(2 * (x * z - qw * y)), 1 - 2 * (y * y + z * z))
+        self.q1 = pitch_of(quat)
         self.dq1 = w[1]
-        self.roll = atan2(rot[7], rot[8])
-        self.yaw = atan2(rot[3], rot[0])
+        self.roll = math.atan2(rot[7], rot[8])
+        self.yaw = math.atan2(rot[3], rot[0])
         # positions and rates in one pass in C (tuples: nothing downstream writes into them)
         js = pb.getJointStates(self.robot, self.engine_joints, physicsClientId=c)
         jq, jdq, _, _ = zip(*js, strict=True)
