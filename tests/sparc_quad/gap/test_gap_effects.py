@@ -1,9 +1,9 @@
 """Every effect of the library, hidden alone in the bench spine, is named on its joint with its parameters
 (within 10 % or 2 standard errors), and the held-out gap ends within 1.1x the noise floor.
 
-Default suite: one seed per effect (the second seed of each is in the slow suite: the pair cost 220 s of a
-12.5-minute default suite on a 2-vCPU AMD EPYC VM). Slow suite: that seed and a sweep of 6 more per effect
-(the sweep's rate is printed)."""
+Default suite: one seed per effect (the second seed of each is in the slow suite: the two seeds took
+about 200 s of a 12.5-minute default suite on a 2-vCPU AMD EPYC VM). Slow suite: that seed and a sweep of
+6 more per effect (the sweep's rate is printed)."""
 
 from __future__ import annotations
 
