@@ -46,8 +46,18 @@ class CompiledBoundController(Gait):
         om = w.base_omega
         self._pack_inp(self._inp, 0, t, *w.base_pos, w.q1, w.dq1, w.roll, w.yaw, om[0], om[2], *w.q_spine,
                        *w.dq_spine, *w.jq, *w.jdq)
+        self._fn(self._prm, self._st, self._inp, self._out)
+        return self.take_kernel_state()
+
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """(prm, st, out, how many inputs) of the kernel `bound_kernel.bound_step`: what the bound's compiled
+        step steps in place of `step` (then `take_kernel_state`)."""
+        return self._prm, self._st, self._out, len(self._inp)
+
+    def take_kernel_state(self) -> dict[str, tuple[float, float, float]]:
+        """`out`, `stance_flags`, `phase`, `duty` and `pitch` from the kernel's arrays after its step (here,
+        or in the bound's compiled step, which steps `_prm`, `_st` and `_out` itself)."""
         st = self._st
-        self._fn(self._prm, st, self._inp, self._out)
         o = self._out.tolist()
         out = self.out
         out["HL"], out["HR"], out["FL"], out["FR"] = (o[0], o[1], o[2]), (o[3], o[4], o[5]), \

@@ -22,6 +22,8 @@ from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.jsonfmt import json_text
 from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
+from sparc_quad.sim.compiled_loop import CompiledLoop
+from sparc_quad.sim.fall import FALL_REASONS, fall_code
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import HELD_STATE, QuadWorld, WorldConfig, make_world
 from sparc_quad.sim.sim_spine import DirectSpine, SimSpine
@@ -77,13 +79,7 @@ def fall_reason(world: QuadWorld, pitch_front: float) -> str | None:
 
 
 def _fall_reason(body_contact: bool, q1: float, pitch_front: float, roll: float, slope: float) -> str | None:
-    if body_contact:
-        return "body touched the ground"
-    if abs(q1 + slope) > 1.0 or abs(pitch_front + slope) > 1.0:
-        return "pitch beyond 1 rad"
-    if abs(roll) > 0.8:
-        return "roll beyond 0.8 rad"
-    return None
+    return FALL_REASONS[fall_code(body_contact, q1, pitch_front, roll, slope)]
 
 
 VIDEO_FPS = 25
@@ -147,6 +143,7 @@ def run_bound(
     profile: dict[str, float] | None = None,
     stop: Callable[[], bool] | None = None,
     held_steps: bool = True,
+    compiled_loop: bool = True,
 ) -> BoundResult:
     """Simulate `cfg.duration_s` of bounding. `spine` (a `SimSpine`) defaults to the run's spine called in
     process (`direct_spine(cfg)`). `on_frame(world)` is called every `frame_every_s`; `video` collects frames
@@ -157,7 +154,9 @@ def run_bound(
     timestamps. `stop()`, when given, is asked before each step computed in full (held steps run between
     those, at most the gait's control period); True raises KeyboardInterrupt there (the
     CLI's Ctrl-C: the exception is raised in this loop, never inside an extension's call). `held_steps`
-    False runs every step through the full path (the reference the held steps are tested against)."""
+    False runs every step through the full path (the reference the held steps are tested against).
+    `compiled_loop` False keeps a compiled run's steps in the Python loop (the reference of
+    `sim.compiled_loop`, which runs them otherwise where it can: `CompiledLoop.why_not`)."""
     frames: list = []
     if video:
         on_frame, frame_every_s = (lambda w: frames.append(w.render())), 1.0 / VIDEO_FPS
@@ -222,110 +221,121 @@ def run_bound(
     est_update, step_chunk = world.estimator.update, world.step_chunk
     slope = world.cfg.slope_rad
     pending = None  # a step whose estimator, spine and gait ran in a chunk's catch-up: its full path
+    # the compiled loop: every step in full, its control half one compiled call (the same doubles as the
+    # loop below: tests/sparc_quad/sim/test_compiled_loop.py)
+    fast = None
+    if (compiled_loop and backend == "numba" and not holds and not latency and not prof and not frame_every
+            and not realtime and CompiledLoop.why_not(world, spine, gait) is None):
+        fast = CompiledLoop(world, spine, gait)
     t0 = time.perf_counter()
     i = 0
     try:
-        while i < n:
-            if stop is not None and stop():
-                raise KeyboardInterrupt
-            if pending is not None:
-                t, est, q_sp, dq_sp, leg_tau, tau_s = pending
-                pending = None
-            else:
+        if fast is not None:  # the control half of every step in one compiled call (sim.compiled_loop)
+            i, fell, fall_t, first_reason = fast.run(log, n, stop, cfg.stop_on_fall)
+        else:
+            while i < n:
+                if stop is not None and stop():
+                    raise KeyboardInterrupt
+                if pending is not None:
+                    t, est, q_sp, dq_sp, leg_tau, tau_s = pending
+                    pending = None
+                else:
+                    if prof:
+                        c0 = clock()
+                    t = world.t
+                    est = estimate()
+                    if prof:
+                        c1 = clock()
+                        profile["read"] += c1 - c0
+                    q_sp, dq_sp = world.q_spine, world.dq_spine
+                    spine_begin(est, q_sp, dq_sp, t)  # a node elsewhere works while the gait runs
+                    if prof:
+                        c0 = clock()
+                        profile["spine"] += c0 - c1
+                    leg_tau = gait_step(t)
+                    if prof:
+                        c1 = clock()
+                        profile["gait"] += c1 - c0
+                    tau_s = spine_finish()  # the gait does not read the spine: the order changes no number
+                    if prof:
+                        c0 = c1
+                        c1 = clock()
+                        profile["spine"] += c1 - c0
+                if latency:  # what the actuators apply now was commanded `latency` steps ago
+                    pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
+                    tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
+                tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
+                set_torques(tau_s, leg_tau)
+                task = spine.task_pose  # as of this step's begin: read once for the gait and the log
+                task = task.tolist() if type(task) is ndarray else task
+                observe_spine(t, float(task[0]))
+                # log the state the torques were computed from: one row, one pack; the power and peak
+                # columns are filled from the logged torques and rates after the loop
+                # (metrics.derived_columns)
+                q1 = world.q1
+                cf = world.contact_force
+                pack_row(log, i * row_bytes, t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
+                         q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
+                         *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
+                         flags["hind"], flags["front"], 0.0, 0.0, 0.0,
+                         *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
+                         gait_phase(), gait_frequency(), spine.energy_j)
+                if frame_every and i % frame_every == 0 and on_frame is not None:
+                    on_frame(world)
                 if prof:
                     c0 = clock()
-                t = world.t
-                est = estimate()
+                    profile["log"] += c0 - c1
+                if holds:
+                    # this step and the held ones up to the gait's next call, then their catch-up
+                    k = min(1 + idle_ticks(), n - i)
+                    s0 = s = i
+                    for t1, q1, dq1, roll, yaw, q_sp1, dq_sp1, body, twist in step_chunk(k, i):
+                        # the state after step s: its fall check, then (inside the chunk) step s + 1's
+                        # catch-up
+                        pf1 = q1 + sum(q_sp1)
+                        if not fell:
+                            reason = _fall_reason(body, q1, pf1, roll, slope)
+                            if reason is not None:
+                                fell, fall_t, first_reason = True, t1, reason
+                                if cfg.stop_on_fall:
+                                    break
+                        s += 1
+                        if s == s0 + k:
+                            break
+                        est = est_update(q1, dq1, twist)
+                        spine_begin(est, q_sp1, dq_sp1, t1)
+                        leg_tau = gait_step(t1)
+                        tau_s1 = spine_finish()
+                        if not (type(tau_s1) is list and tau_s1 == tau_s):  # the spine's torque changed
+                            world.rewind(s - s0)
+                            pending = (t1, est, q_sp1, dq_sp1, leg_tau, tau_s1)
+                            break
+                        task = spine.task_pose
+                        task = task.tolist() if type(task) is ndarray else task
+                        pack_aux(aux, s * aux_bytes, s0, t1, q1, dq1, roll, yaw, est.q1, est.dq1, est.ddq1,
+                                 pf1, *task, gait_phase(), gait_frequency(), spine.energy_j)
+                    if fell and cfg.stop_on_fall:
+                        i = s + 1
+                        break
+                    i = s
+                    continue
+                world_step()
                 if prof:
                     c1 = clock()
-                    profile["read"] += c1 - c0
-                q_sp, dq_sp = world.q_spine, world.dq_spine
-                spine_begin(est, q_sp, dq_sp, t)  # a node elsewhere works while the gait runs
+                    profile["physics"] += c1 - c0
+                if realtime:
+                    lag = t0 + world.t - time.perf_counter()
+                    if lag > 0:
+                        time.sleep(lag)
+                i += 1
+                if not fell:  # the first fall's time and reason are kept (stop_on_fall=False runs on)
+                    reason = fall_reason(world, world.q1 + sum(world.q_spine))
+                    if reason is not None:
+                        fell, fall_t, first_reason = True, world.t, reason
+                        if cfg.stop_on_fall:
+                            break
                 if prof:
-                    c0 = clock()
-                    profile["spine"] += c0 - c1
-                leg_tau = gait_step(t)
-                if prof:
-                    c1 = clock()
-                    profile["gait"] += c1 - c0
-                tau_s = spine_finish()  # the gait does not read the spine: the order changes no number
-                if prof:
-                    c0 = c1
-                    c1 = clock()
-                    profile["spine"] += c1 - c0
-            if latency:  # what the actuators apply now was commanded `latency` steps ago
-                pipe.append((tuple(tau_s), {k: tuple(v) for k, v in leg_tau.items()}))
-                tau_s, leg_tau = pipe.popleft() if len(pipe) > latency else ((0.0, 0.0, 0.0), zero_legs)
-            tau_s = tau_s.tolist() if type(tau_s) is ndarray else tau_s  # plain floats: cheaper below
-            set_torques(tau_s, leg_tau)
-            task = spine.task_pose  # as of this step's begin: read once for the gait and the log
-            task = task.tolist() if type(task) is ndarray else task
-            observe_spine(t, float(task[0]))
-            # log the state the torques were computed from: one row, one pack; the power and peak
-            # columns are filled from the logged torques and rates after the loop (metrics.derived_columns)
-            q1 = world.q1
-            cf = world.contact_force
-            pack_row(log, i * row_bytes, t, *world.base_pos, q1, world.dq1, est.q1, est.dq1, est.ddq1,
-                     q1 + sum(q_sp), world.roll, world.yaw, *q_sp, *dq_sp, *tau_s,
-                     *task, cf["HL"] > 0.0, cf["HR"] > 0.0, cf["FL"] > 0.0, cf["FR"] > 0.0,
-                     flags["hind"], flags["front"], 0.0, 0.0, 0.0,
-                     *leg_tau["HL"], *leg_tau["HR"], *leg_tau["FL"], *leg_tau["FR"], *leg_dq(),
-                     gait_phase(), gait_frequency(), spine.energy_j)
-            if frame_every and i % frame_every == 0 and on_frame is not None:
-                on_frame(world)
-            if prof:
-                c0 = clock()
-                profile["log"] += c0 - c1
-            if holds:
-                # this step and the held ones up to the gait's next call, then their catch-up
-                k = min(1 + idle_ticks(), n - i)
-                s0 = s = i
-                for t1, q1, dq1, roll, yaw, q_sp1, dq_sp1, body, twist in step_chunk(k, i):
-                    # the state after step s: its fall check, then (inside the chunk) step s + 1's catch-up
-                    pf1 = q1 + sum(q_sp1)
-                    if not fell:
-                        reason = _fall_reason(body, q1, pf1, roll, slope)
-                        if reason is not None:
-                            fell, fall_t, first_reason = True, t1, reason
-                            if cfg.stop_on_fall:
-                                break
-                    s += 1
-                    if s == s0 + k:
-                        break
-                    est = est_update(q1, dq1, twist)
-                    spine_begin(est, q_sp1, dq_sp1, t1)
-                    leg_tau = gait_step(t1)
-                    tau_s1 = spine_finish()
-                    if not (type(tau_s1) is list and tau_s1 == tau_s):  # the spine's torque changed
-                        world.rewind(s - s0)
-                        pending = (t1, est, q_sp1, dq_sp1, leg_tau, tau_s1)
-                        break
-                    task = spine.task_pose
-                    task = task.tolist() if type(task) is ndarray else task
-                    pack_aux(aux, s * aux_bytes, s0, t1, q1, dq1, roll, yaw, est.q1, est.dq1, est.ddq1, pf1,
-                             *task, gait_phase(), gait_frequency(), spine.energy_j)
-                if fell and cfg.stop_on_fall:
-                    i = s + 1
-                    break
-                i = s
-                continue
-            world_step()
-            if prof:
-                c1 = clock()
-                profile["physics"] += c1 - c0
-            if realtime:
-                lag = t0 + world.t - time.perf_counter()
-                if lag > 0:
-                    time.sleep(lag)
-            i += 1
-            if not fell:  # the first fall's time and reason are kept (stop_on_fall=False runs on)
-                reason = fall_reason(world, world.q1 + sum(world.q_spine))
-                if reason is not None:
-                    fell, fall_t, first_reason = True, world.t, reason
-                    if cfg.stop_on_fall:
-                        break
-            if prof:
-                profile["other"] += clock() - c1
+                    profile["other"] += clock() - c1
     finally:
         wall = time.perf_counter() - t0
         physics_wall = world.physics_wall_s
@@ -350,6 +360,9 @@ def run_bound(
     metrics["wall_time_s"] = wall
     metrics["physics_wall_time_s"] = physics_wall
     metrics["held_steps"] = int((aux[:i, 0] >= 0.0).sum()) if holds else 0  # steps run inside a chunk
+    # which loop ran the steps: "compiled" (sim.compiled_loop), "held" (the Python loop with held chunks) or
+    # "python" (every step in the Python loop)
+    metrics["loop"] = "compiled" if fast is not None else "held" if holds else "python"
     metrics["spine_path"] = spine.name
     metrics["spine_driver"] = spine.driver
     metrics["spine_backend"] = spine.backend

@@ -131,14 +131,43 @@ class Estimator:
             1.0 - math.exp(-2 * math.pi * cfg.accel_filter_hz * dt) if cfg.accel_filter_hz > 0 else 1.0
         )
 
+    @property
+    def delay_line_length(self) -> int:
+        """How many estimates the delay line holds: delay_steps + 1 (at least 1)."""
+        return self._buf.maxlen
+
+    @property
+    def accel_filter_alpha(self) -> float:
+        """The first-order q̈1 filter's gain per step (1: no filter)."""
+        return self._alpha
+
+    def draw_noise(self) -> np.ndarray:
+        """The next block of standard normals, a row of three per step: drawn ahead in blocks, the same
+        stream as three draws per step."""
+        return self.rng.standard_normal((self.NOISE_BLOCK, 3))
+
+    def save(self) -> tuple:
+        """Where the estimator stands (the compiled step carries it on and `restore`s it): the noise block
+        (list of rows), the next row, the previous true dq1 (None before the first update), the filtered
+        q̈1, and the delay line's outputs as (q1, dq1, ddq1), oldest first."""
+        return (self._noise, self._k, self._prev_dq1, self._acc,
+                [(e.q1, e.dq1, e.ddq1) for e in self._buf])
+
+    def restore(self, noise: list, k: int, prev_dq1: float | None, acc: float, line) -> None:
+        """Take up the state `save` gives ("fixed" base motion: the delay line's entries have no base
+        acceleration)."""
+        self._noise, self._k, self._prev_dq1, self._acc = noise, k, prev_dq1, acc
+        self._buf.clear()
+        self._buf.extend(EstimatorOutput(q, dq, ddq) for q, dq, ddq in line)
+
     def update(self, q1: float, dq1: float, twist=None) -> EstimatorOutput:
         """This step's estimate from the true q1, dq1 and (constant-twist) the true body twist of the
         hind-body frame origin (vx, vy, vz m/s, wx, wy, wz rad/s, hind-body frame) or (authors-cvel) the
         authors' twist (`QuadWorld.authors_twist`, `twist_lag_steps` old)."""
         c = self.cfg
         k = self._k
-        if k == len(self._noise):  # draw ahead in blocks: the same stream as three draws per step
-            self._noise = self.rng.standard_normal((self.NOISE_BLOCK, 3)).tolist()
+        if k == len(self._noise):
+            self._noise = self.draw_noise().tolist()
             k = 0
         n = self._noise[k]
         self._k = k + 1
@@ -353,6 +382,18 @@ class QuadWorld(ABC):
             vals += (ha, hf, kf)
         vals.append(0.0)
         self._tau = self._reorder(vals)
+
+    def torque_sources(self) -> list[tuple[str, int] | None]:
+        """Where `set_torques` takes each `movable` joint's torque from: ("spine", k) for q(2+k), (leg, r)
+        for a leg's HAA, HFE, KFE (r = 0, 1, 2), None for a joint it sets to 0."""
+        keys = self._leg_keys
+        n_listed = 3 + 3 * len(keys)
+        return [("spine", j) if j < 3 else (keys[(j - 3) // 3], (j - 3) % 3) if j < n_listed else None
+                for j in self._tau_order]
+
+    def set_joint_torques(self, tau: list[float]) -> None:
+        """Torques for this step already in `movable` order, N*m (what `set_torques` computes)."""
+        self._tau = tau
 
     @property
     def applied_torques(self) -> list[float]:

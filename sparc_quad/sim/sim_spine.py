@@ -21,7 +21,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule, make_spine_drive
+from sparc_quad.sim.spine_drive import ImpedanceSpine, SpineGains, SpineSchedule, make_spine_drive
 from spine_module import params as P
 from spine_module import safety
 
@@ -135,6 +135,16 @@ class DirectSpine:
 
     def finish(self) -> list[float]:
         return self._tau
+
+    def compiled_law(self):
+        """(controller, torque limits, torso_accel) where `begin` is the compiled impedance law run every
+        step, then `spine_module.safety.limit_torque` (what the bound's compiled step does in one call),
+        else None."""
+        ctrl = getattr(self.drive, "ctrl", None)
+        if (self.clocked or not self.actuated or ctrl is None or ctrl.backend != "numba"
+                or type(self.drive).step is not ImpedanceSpine.step or self._limits.clear is None):
+            return None
+        return ctrl, self._limits, self._torso_accel
 
     def node_states(self) -> None:
         return None

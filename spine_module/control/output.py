@@ -170,6 +170,13 @@ class TaskController:
                        base_accel: np.ndarray | None = None) -> ControlOutput:
         raise NotImplementedError
 
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(prm, res, saturated) the compiled step `kernel.spine_step` reads and fills for this controller
+        (compiled code that calls the kernel itself passes these), None on the pinocchio backend."""
+        if self._compiled is None:
+            return None
+        return self._prm, self._res, self.out.saturated
+
     def _fail(self, reason: str) -> ControlOutput:
         out = self.out
         out.tau[:] = 0.0
