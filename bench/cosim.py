@@ -8,8 +8,11 @@ run. The zero-torque "raw" stepping is context only (the robot collapses, so its
     python bench/cosim.py --json out/bench/cosim.json [--repeat 3] [--backend numba|python|auto]
 
 The bound runs the compiled per-step code (`--backend numba`, what `sparc-quad bound` picks for runs of 8 s
-or longer; loading it is a per-process cost that bench/run_cost.py measures); one run with the other backend
-is reported beside it as `context_<backend>_backend_vs_physics_only`.
+or longer; loading it is a per-process cost that bench/run_cost.py measures), which runs the control half of
+each step in one compiled call (`sim.compiled_loop`; `loop` says which loop ran); one run with the other
+backend is reported beside it as `context_<backend>_backend_vs_physics_only`, and one with the same compiled
+controllers called from the Python loop (`run_bound(..., compiled_loop=False)`, the reference of the
+compiled loop, the same series bit for bit) as `context_python_loop_vs_physics_only`.
 
 Three figures, each the best of `--repeat` runs:
 - raw: `stepSimulation` of the model for the same simulated time with zero torques (the robot collapses
@@ -101,6 +104,7 @@ def main() -> int:
         cfg = BoundConfig(duration_s=args.duration, backend=args.backend)
         c0 = time.process_time()
         res = run_bound(cfg)
+        loop = res.metrics["loop"]
         cpus.append(time.process_time() - c0)
         bounds.append(res.wall_s)
         physics.append(res.metrics["physics_wall_time_s"])
@@ -116,6 +120,7 @@ def main() -> int:
     prof_res = run_bound(BoundConfig(duration_s=args.duration, backend=args.backend), profile=profile)
     other = "python" if prof_res.metrics["gait_backend"] == "numba" else "numba"
     ctx = run_bound(BoundConfig(duration_s=args.duration, backend=other))
+    py_loop = run_bound(BoundConfig(duration_s=args.duration, backend=args.backend), compiled_loop=False)
     total = sum(profile.values())
     raw, inproc, phys = min(raws), min(bounds), min(physics)
     node = min(nodes)
@@ -126,7 +131,9 @@ def main() -> int:
         "in_process_vs_physics_only": phys / inproc,
         "backend": {"asked": args.backend, "spine": prof_res.metrics["spine_backend"],
                     "gait": prof_res.metrics["gait_backend"]},
+        "loop": loop,
         f"context_{other}_backend_vs_physics_only": ctx.metrics["physics_wall_time_s"] / ctx.wall_s,
+        "context_python_loop_vs_physics_only": py_loop.metrics["physics_wall_time_s"] / py_loop.wall_s,
         "phase_wall_s": {k: profile[k] for k in PROFILE_PHASES},
         "phase_share": {k: profile[k] / total for k in PROFILE_PHASES},
         "profiled_bound_wall_s": prof_res.wall_s,
