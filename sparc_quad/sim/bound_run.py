@@ -22,7 +22,6 @@ from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.jsonfmt import json_text
 from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, LEGS
-from sparc_quad.sim.compiled_loop import CompiledLoop
 from sparc_quad.sim.fall import FALL_REASONS, fall_code
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import HELD_STATE, QuadWorld, WorldConfig, make_world
@@ -224,9 +223,11 @@ def run_bound(
     # the compiled loop: every step in full, its control half one compiled call (the same doubles as the
     # loop below: tests/sparc_quad/sim/test_compiled_loop.py)
     fast = None
-    if (compiled_loop and backend == "numba" and not holds and not latency and not prof and not frame_every
-            and not realtime and CompiledLoop.why_not(world, spine, gait) is None):
-        fast = CompiledLoop(world, spine, gait)
+    if compiled_loop and backend == "numba" and not (holds or latency or prof or frame_every or realtime):
+        from sparc_quad.sim.compiled_loop import CompiledLoop  # numba runs only (a short run's import cost)
+
+        if CompiledLoop.why_not(world, spine, gait) is None:
+            fast = CompiledLoop(world, spine, gait)
     t0 = time.perf_counter()
     i = 0
     try:
