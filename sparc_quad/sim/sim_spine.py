@@ -141,8 +141,8 @@ class DirectSpine:
         step, then `spine_module.safety.limit_torque` (what the bound's compiled step does in one call),
         else None."""
         ctrl = getattr(self.drive, "ctrl", None)
-        if (self.clocked or not self.actuated or ctrl is None or ctrl.backend != "numba"
-                or type(self.drive).step is not ImpedanceSpine.step or self._limits.clear is None):
+        if (self.clocked or type(self.drive) is not ImpedanceSpine or ctrl is None or ctrl.backend != "numba"
+                or self._limits.clear is None):
             return None
         return ctrl, self._limits, self._torso_accel
 
