@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sparc_quad.sim.bound_log import COLUMNS, LEG_JOINTS, LEGS
+from sparc_quad.sim.bound_log import COLUMNS, DERIVED, LEG_JOINTS, LEGS
 from spine_module import params as P
 
 GROUPS = ("legs", "spine", "total")
@@ -151,7 +151,7 @@ _SPINE_DQ = [_IDX[f"d{j}"] for j in SPINE_JOINTS]
 _CONTACT = [_IDX[f"contact_{leg}"] for leg in LEGS]
 
 
-_LEG_P, _SPINE_P, _LEG_M = (_IDX[c] for c in ("leg_power_w", "spine_power_w", "leg_tau_max"))
+_LEG_P, _SPINE_P, _LEG_M = (_IDX[c] for c in DERIVED)
 _LEG_HFE_KFE = [_IDX[f"tau_{leg}_{j}"] for leg in LEGS for j in ("hfe", "kfe")]
 
 

@@ -47,3 +47,7 @@ COLUMNS = (
     "gait_frequency_hz",
     "spine_spring_energy_j",  # passive spine: energy stored in the spring
 )
+
+# the columns computed from the logged torques and rates after the loop (metrics.table.derived_columns);
+# the loops write 0 there
+DERIVED = ("leg_power_w", "spine_power_w", "leg_tau_max")

@@ -21,7 +21,7 @@ from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.jsonfmt import json_text
 from sparc_quad.metrics import table as metrics_table
-from sparc_quad.sim.bound_log import COLUMNS, LEGS
+from sparc_quad.sim.bound_log import COLUMNS, DERIVED, LEGS
 from sparc_quad.sim.fall import FALL_REASONS, fall_code
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import HELD_STATE, QuadWorld, WorldConfig, make_world
@@ -111,8 +111,7 @@ HELD_AUX = ("t", "q1_true", "dq1_true", "roll", "yaw", "q1_est", "dq1_est", "ddq
             "spine_x", "spine_z", "spine_theta", "gait_phase", "gait_frequency_hz", "spine_spring_energy_j")
 HELD_KEPT = ("tau2", "tau3", "tau4", "stance_hind", "stance_front",
              *(c for c in COLUMNS if c.startswith("tau_")))
-_DERIVED = ("leg_power_w", "spine_power_w", "leg_tau_max")
-if sorted((*HELD_STATE, *HELD_AUX, *HELD_KEPT, *_DERIVED)) != sorted(COLUMNS):
+if sorted((*HELD_STATE, *HELD_AUX, *HELD_KEPT, *DERIVED)) != sorted(COLUMNS):
     raise RuntimeError("a held step's row must cover every log column once (bound_run.HELD_*)")
 _COL = {c: k for k, c in enumerate(COLUMNS)}
 _HELD_STATE_COLS = [_COL[c] for c in HELD_STATE]

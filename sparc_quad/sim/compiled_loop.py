@@ -14,13 +14,12 @@ import struct
 import numpy as np
 
 from sparc_quad.sim import step_kernel as sk
-from sparc_quad.sim.bound_log import COLUMNS, LEG_JOINTS, LEGS
+from sparc_quad.sim.bound_log import COLUMNS, DERIVED, LEG_JOINTS, LEGS
 from sparc_quad.sim.fall import FALL_REASONS
 
-_DERIVED = ("leg_power_w", "spine_power_w", "leg_tau_max")  # filled after the loop, as for every row
 _COLS = np.array([COLUMNS.index(c) for c in (*sk.KERNEL_ROW, *(f"tau_{j}" for j in LEG_JOINTS),
                                              *(f"dq_{j}" for j in LEG_JOINTS))], dtype=np.int64)
-if sorted((*(COLUMNS[c] for c in _COLS), *_DERIVED)) != sorted(COLUMNS):
+if sorted((*(COLUMNS[c] for c in _COLS), *DERIVED)) != sorted(COLUMNS):
     raise RuntimeError("the compiled step must write every log column but the derived ones, once")
 
 
@@ -50,7 +49,7 @@ class CompiledLoop:
         problem = self.why_not(world, spine, gait)
         if problem is not None:
             raise ValueError(f"no compiled loop: {problem}")
-        self.world, self.spine, self.gait = world, spine, gait
+        self.world, self.gait = world, gait
         self._step = control_step
         ctrl, lim, torso_accel = spine.compiled_law()
         self._spine_arrays = ctrl.kernel_arrays()
@@ -98,12 +97,12 @@ class CompiledLoop:
         sprm, res, sat = self._spine_arrays
         gprm, gst = self._gait_arrays
         at_inp = self._at["inp"]
-        tau = self.tau
-        n_tau = len(world.movable)
+        tau = self.tau  # len(world.movable): what set_torques makes
         est = self._part("est")
         noise, k = load_estimator(world.estimator, est)
         draw = world.estimator.draw_noise
         set_tau, world_step = world.set_joint_torques, world.step
+        w = world
         fell, fall_t, reason = False, None, None
         i = 0
         try:
@@ -112,7 +111,6 @@ class CompiledLoop:
                     raise KeyboardInterrupt
                 if k == len(noise):
                     noise, k = draw(), 0
-                w = world
                 om, cf = w.base_omega, w.contact_force
                 pack(ws, 8 * at_inp, w.t, *w.base_pos, w.q1, w.dq1, w.roll, w.yaw, om[0], om[2], *w.q_spine,
                      *w.dq_spine, *w.jq, *w.jdq, cf["HL"], cf["HR"], cf["FL"], cf["FR"], w.body_contact)
@@ -122,15 +120,14 @@ class CompiledLoop:
                     fell, fall_t, reason = True, w.t, FALL_REASONS[code]
                     if stop_on_fall:
                         break
-                set_tau(tau[:n_tau].tolist())
+                set_tau(tau.tolist())
                 world_step()
                 i += 1
             else:
                 if not fell:  # the state after the last step
-                    w = world
                     code = sk.fall_code(w.body_contact, w.q1, w.q1 + sum(w.q_spine), w.roll, w.cfg.slope_rad)
                     if code:
-                        fell, fall_t, reason = True, world.t, FALL_REASONS[code]
+                        fell, fall_t, reason = True, w.t, FALL_REASONS[code]
         finally:
             save_estimator(world.estimator, est, noise, k)
             self._gait_out[:] = self._part("gout")  # the controller's own output, as its step leaves it

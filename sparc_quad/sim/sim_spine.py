@@ -140,11 +140,11 @@ class DirectSpine:
         """(controller, torque limits, torso_accel) where `begin` is the compiled impedance law run every
         step, then `spine_module.safety.limit_torque` (what the bound's compiled step does in one call),
         else None."""
-        ctrl = getattr(self.drive, "ctrl", None)
-        if (self.clocked or type(self.drive) is not ImpedanceSpine or ctrl is None or ctrl.backend != "numba"
+        drive = self.drive
+        if (self.clocked or type(drive) is not ImpedanceSpine or drive.ctrl.backend != "numba"
                 or self._limits.clear is None):
             return None
-        return ctrl, self._limits, self._torso_accel
+        return drive.ctrl, self._limits, self._torso_accel
 
     def node_states(self) -> None:
         return None
