@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from spine_module.messages import channels
-from tests.node_netns import PERIOD, K, lcm_tool, run_in_netns
+from tests import lcm_mark
+from tests.node_netns import PERIOD, UDP_COUNTERS, K, lcm_tool, run_in_netns
 
 ROOT = Path(__file__).resolve().parents[1]
 INTEGRATION = ROOT / "tests" / "integration"
@@ -57,7 +58,9 @@ def pytest_collection_modifyitems(config, items):
 def lcm_run(tmp_path_factory):
     """A recorded node session: `spine-node` + `bench-robot` (static push-pull, k_x = K, one PERIOD) +
     `lcm-logger`, as separate processes on UDP multicast in a network namespace. Returns (folder, logs).
-    The logger listens with the node's URL (its 2 MB receive buffer: a descheduled logger drops less)."""
+    The robot starts once the logger records a start mark and the logger stops once it records an end
+    mark (tests/lcm_mark.py); the namespace's UDP counters are kept (udp_snmp.txt) so that a test can
+    tell datagrams the kernel dropped at a full buffer from datagrams lost any other way."""
     out = tmp_path_factory.mktemp("lcm_run")
     py = shlex.quote(sys.executable)
     # the logger gets the largest receive buffer the namespace allows (net.core.rmem_max, 4 MiB here) and,
@@ -74,11 +77,13 @@ NICE=""; nice -n -5 true 2>/dev/null && NICE="nice -n -5"
 $NICE {shlex.quote(lcm_tool("lcm-logger"))} -q --lcm-url={url} -f {out}/session.lcmlog \
     > {out}/logger.out 2>&1 &
 LOGGER=$!
+{py} -m tests.lcm_mark {url} {lcm_mark.START} {out}/session.lcmlog 2> {out}/mark.err
 {py} -m sparc_quad bench-robot --clock lockstep {exp} --out {out} > {out}/robot.out 2> {out}/robot.err
 wait $NODE
+{py} -m tests.lcm_mark {url} {lcm_mark.END} {out}/session.lcmlog 2>> {out}/mark.err
 kill -INT $LOGGER
 wait $LOGGER || true
-"""
+""" + UDP_COUNTERS.format(out=out)
     r = run_in_netns(script, ROOT)
     logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
     assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"

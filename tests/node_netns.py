@@ -43,6 +43,20 @@ def lcm_tool(name: str) -> str:
     return str(here) if here.exists() else (shutil.which(name) or name)
 
 
+# the namespace's own UDP counters (/proc/net/snmp is per network namespace): `cat` them into a file at
+# the end of a script; RcvbufErrors counts datagrams the kernel dropped at a full socket receive buffer
+UDP_COUNTERS = "cat /proc/net/snmp > {out}/udp_snmp.txt\n"
+
+
+def udp_rcvbuf_errors(path: Path) -> int:
+    """Datagrams the kernel dropped in the namespace because a receiver's socket buffer was full: the loss
+    a loaded host may cause with any receive buffer (a machine with net.core.rmem_max at its 208 KiB
+    default gives LCM's 2 MB request only that much), as opposed to a datagram never sent or never read."""
+    lines = [ln.split() for ln in path.read_text().splitlines() if ln.startswith("Udp:")]
+    header, values = lines[0], lines[1]
+    return int(values[header.index("RcvbufErrors")])
+
+
 def run_in_netns(script: str, cwd: Path, timeout_s: float = 180.0) -> subprocess.CompletedProcess:
     prefix = unshare_prefix()
     assert prefix is not None

@@ -24,7 +24,8 @@ from sparc_quad.robot_side.bench import run_inprocess
 from spine_module.messages import FingerprintError, MessageError, channels, codec, decode
 from spine_module.node import NodeConfig
 from spine_module.safety import SafetyConfig
-from tests.node_netns import PERIOD, K, unshare_prefix
+from tests import lcm_mark
+from tests.node_netns import PERIOD, K, udp_rcvbuf_errors, unshare_prefix
 
 pytestmark = [pytest.mark.netns,
               pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")]
@@ -42,8 +43,10 @@ def test_processes_ran_and_answered_every_tick(lcm_run):
     node = json.loads((out / "node.json").read_text())
     assert robot["ticks"] == round(PERIOD * 1000) and robot["unanswered"] == 0, logs
     assert node["ticks"] == robot["ticks"] and node["rejected"] == 0 and not robot["latched"]
-    # spine states are fire-and-forget UDP: a datagram may be lost on a loaded machine, rarely
-    assert robot["node_states"] >= 0.98 * robot["ticks"]
+    # spine states are fire-and-forget UDP: a loaded machine may drop some at a full receive buffer, and
+    # the kernel counts each; a state lost any other way (never sent, never read) is a failure
+    drops = udp_rcvbuf_errors(out / "udp_snmp.txt")
+    assert robot["node_states"] >= robot["ticks"] - drops, (robot["node_states"], drops)
 
 
 def test_lockstep_trajectory_matches_inprocess(lcm_run, inprocess_run):
@@ -79,7 +82,7 @@ def test_logger_replay_through_decoder(lcm_run):
     states = []
     sample: dict[str, bytes] = {}
     for ev in lcm.EventLog(str(out / "session.lcmlog"), "r"):
-        if ev.channel == "LCM_SELF_TEST":  # LCM's own start-up probe
+        if ev.channel in ("LCM_SELF_TEST", lcm_mark.START, lcm_mark.END):  # LCM's probe, the test's marks
             continue
         msg = decode(ev.channel, ev.data)  # raises on any malformed or foreign message
         counts[ev.channel] = counts.get(ev.channel, 0) + 1
@@ -88,15 +91,23 @@ def test_logger_replay_through_decoder(lcm_run):
             states.append(msg)
     n = round(PERIOD * 1000)
     summary = json.loads((out / "summary.json").read_text())
-    # one feedback and one answer per tick (+ retransmitted ticks, + the node's stop on exit); a logger
-    # descheduled too long could miss a datagram, so allow a rare loss
-    for ch in (channels.MOTOR_FEEDBACK, channels.MOTOR_COMMAND, channels.TORSO_STATE, channels.SPINE_STATE):
-        assert 0.98 * n <= counts[ch] <= n + 1 + summary["retransmits"], (ch, counts[ch])
+    # one feedback and one answer per tick (+ retransmitted ticks, + the node's stop on exit). The logger
+    # was subscribed before the first tick and had received everything before it was stopped (the marks);
+    # a logger descheduled long enough for its socket buffer to fill loses datagrams, which the kernel
+    # counts (drops, any socket in the namespace): every other missing datagram is a failure
+    drops = udp_rcvbuf_errors(out / "udp_snmp.txt")
+    per_tick = (channels.MOTOR_FEEDBACK, channels.MOTOR_COMMAND, channels.TORSO_STATE, channels.SPINE_STATE)
+    for ch in per_tick:
+        assert counts[ch] <= n + 1 + summary["retransmits"], (ch, counts[ch])
+    missing = sum(max(0, n - counts[ch]) for ch in per_tick)
+    assert missing <= drops, ({ch: counts[ch] for ch in per_tick}, f"kernel-counted drops {drops}")
+    assert min(counts[ch] for ch in per_tick) >= 0.5 * n, "the log holds less than half the session"
     assert counts[channels.HEARTBEAT_ROBOT] >= n // 20 and counts[channels.SPINE_COMMAND] >= n // 20
     # the replayed states are the states the robot received, field for field
     by_seq = {int(sq): i for i, sq in enumerate(a["node_seq"])}
     common = [s for s in states if s.seq in by_seq]
-    assert len(common) >= 0.98 * n
+    # every logged state the robot also received (each side may have lost different ones)
+    assert len(common) >= counts[channels.SPINE_STATE] - (n - len(by_seq)), (len(common), len(by_seq))
     idx = [by_seq[s.seq] for s in common]
     np.testing.assert_array_equal(np.array([s.x for s in common]), a["node_x"][idx])
     np.testing.assert_array_equal(np.array([s.tau_cmd for s in common]), a["node_tau_cmd"][idx])

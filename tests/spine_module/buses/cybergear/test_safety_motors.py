@@ -112,6 +112,14 @@ def test_can_timeout_written_read_back_and_refused_when_missing():
         assert all(m.mode == P.MotorMode.RESET for m in emu.motors.values())
 
 
+def _all_commanded(emu, torque_nm: float, since: int) -> bool:
+    """Every emulated motor has handled an operation frame of `torque_nm` among its frames from `since`."""
+    with emu.lock:
+        got = {f.motor_id for f in emu.received[since:]
+               if isinstance(f, P.OperationControl) and abs(f.torque - torque_nm) < 1e-3}
+    return got == set(emu.motors)
+
+
 def test_emulated_can_timeout_stops_a_motor_on_its_own_clock():
     """The emulator's CAN timeout: a RUN motor with no frame for CAN_TIMEOUT drops to zero torque, on the
     emulator's clock (a fake one here); with CAN_TIMEOUT = 0 (the firmware default) it runs on forever."""
@@ -122,9 +130,12 @@ def test_emulated_can_timeout_stops_a_motor_on_its_own_clock():
             with CanMotorBus(cfg, interface="virtual", channel=channel) as mb:
                 mb.start()
                 assert mb.receive(1.0) is not None
+                with emu.lock:
+                    n_before = len(emu.received)
                 mb.send(MotorCommand(tau_ff=np.full(3, 0.5)))
-                assert wait_for(lambda: all(abs(float(m.cmd.tau_ff) - 0.5) < 1e-3
-                                            for m in emu.motors.values()))
+                # this send's own frames, not the 0.5 N·m the first case left in the motors: those frames
+                # set the clock the timeout counts from
+                assert wait_for(lambda n0=n_before: _all_commanded(emu, 0.5, since=n0))
                 emu.step()
                 assert all(m.last_torque == pytest.approx(0.5, abs=1e-3) for m in emu.motors.values())
                 t[0] += 0.0299
