@@ -188,6 +188,8 @@ def run(args: argparse.Namespace) -> int:
                "rejected_by_channel": io.inbox.rejected,
                "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
                "repeated_ticks": node.repeated_ticks,
+               # lockstep: ticks whose torso state came after their feedback, and those run without it
+               "lockstep_torso_waits": io.torso_waits, "lockstep_torso_missing": node.lockstep_torso_missing,
                "bus_faults": list(getattr(bus, "latched_faults", [])),  # latched in the motor backend
                # messages superseded by a newer one before the node looked (a flood shows here)
                "dropped": {**io.inbox.dropped, **({"SPARC_MOTOR_FEEDBACK": bus.dropped}

@@ -5,8 +5,9 @@ the seq of the feedback they answer, for lockstep), feedback comes in on SPARC_M
 (sparc.motor_feedback_t), decoded and validated by `spine_module.messages`. A rejected feedback message
 raises `MotorBusError` from `receive` with the `MessageError` (naming the field) as its cause.
 
-Pass `lc` to share one `lcm.LCM` with the node's other channels: messages then dispatch in the order the
-robot sent them (torso state before the motor feedback of the same tick), which lockstep relies on.
+Pass `lc` to share one `lcm.LCM` with the node's other channels. On `udpm` (one socket) messages then
+dispatch in the order the robot sent them (torso state before the motor feedback of the same tick); on
+`mpudpm` (a socket per channel) they may not, and `run_lockstep` waits for the tick's torso state by seq.
 
 `spin_s` (default 0: block at once): a lockstep wait polls for up to this long before it blocks
 (`handle`). A blocked thread lets its CPU go idle, and waking an idle CPU is what a lockstep round trip

@@ -115,9 +115,16 @@ class NodeIO:
 
     def __init__(self) -> None:
         self.inbox = Inbox()
+        self.torso_waits = 0  # lockstep ticks whose torso state came after their feedback (await_torso)
 
     def poll(self) -> None:
         """Move everything that has arrived into the inbox without blocking."""
+
+    def await_torso(self, seq: int, timeout_s: float) -> bool:
+        """Whether the inbox holds a torso state of tick `seq` or later, waiting up to `timeout_s` for it
+        where the transport can deliver it late. In-process delivery is synchronous: nothing to wait for."""
+        t = self.inbox.torso
+        return t is not None and t.seq >= seq
 
     def publish_state(self, state: SpineState) -> None:
         raise NotImplementedError
@@ -207,6 +214,24 @@ class LcmNodeIO(NodeIO):
             if time.perf_counter() >= deadline:
                 break
         self.handled_last_poll = n
+
+    def await_torso(self, seq: int, timeout_s: float) -> bool:
+        """LCM keeps the order of one socket only: with `mpudpm` (a socket per channel) a tick's motor
+        feedback can be dispatched before the torso state the robot published ahead of it (seen at load:
+        68 of 2500 lockstep ticks ran on the previous tick's q1). Dispatch until it is in, or timeout_s."""
+        inbox = self.inbox
+        t = inbox.torso
+        if t is not None and t.seq >= seq:
+            return True
+        self.torso_waits += 1
+        deadline = time.perf_counter() + timeout_s
+        while True:
+            self.lc.handle_timeout(1)  # ms: one message, or a 1 ms wait
+            t = inbox.torso
+            if t is not None and t.seq >= seq:
+                return True
+            if time.perf_counter() >= deadline:
+                return False
 
     def _publish(self, channel: str, data: bytes) -> None:
         try:

@@ -117,6 +117,7 @@ class SpineNode:
         self.last_now: float | None = None
         self.last_command: MotorCommand | None = None
         self.repeated_ticks = 0
+        self.lockstep_torso_missing = 0  # lockstep ticks run without their own torso state (run_lockstep)
         self.tick_errors = 0
         self._ramp_key: float | None = None  # ramp start time the ramp origin below belongs to
         self._ramp_from: np.ndarray | None = None
@@ -519,6 +520,13 @@ def run_realtime(node: SpineNode, duration_s: float | None = None,
     return RunResult(ticks, elapsed, ticks / elapsed if elapsed > 0 else 0.0, jitter, clock.overruns)
 
 
+# Lockstep: how long a tick's feedback waits for the torso state of the same tick (same seq) when the
+# newest torso state the node has is the previous tick's (a robot that publishes one per tick). A robot
+# that numbers its torso states otherwise, or that stopped sending them, is not waited for; a lost one
+# costs this once, and the tick runs on the last torso state (the stale-torso watchdog judges it as ever).
+LOCKSTEP_TORSO_WAIT_S = 0.1  # wall s: paid in full only for a torso state that never comes
+
+
 def run_lockstep(node: SpineNode, duration_s: float | None = None,
                  stop: threading.Event | Callable[[], bool] | None = None,
                  idle_timeout_s: float = 5.0, max_ticks: int | None = None,
@@ -526,12 +534,17 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
     """One control step per motor feedback tick; node time = the feedback's stamp. Returns when the
     robot has been silent for `idle_timeout_s` of wall time (before its first feedback: for
     `startup_timeout_s`, since a simulated robot may take long to start on a loaded machine), after
-    `duration_s` of node time, after `max_ticks`, or when `stop` is set."""
+    `duration_s` of node time, after `max_ticks`, or when `stop` is set.
+
+    A robot that publishes each tick's torso state with the tick's seq (as `robot_side` does) gets the
+    q1 of that very tick on every tick, whatever order the transport delivers the two in
+    (LOCKSTEP_TORSO_WAIT_S); `node.lockstep_torso_missing` counts the ticks that ran without it."""
     stopped = _stopper(stop)
     t_wall0 = time.monotonic()
     ticks = 0
     first: float | None = None
     last_heard = time.monotonic()
+    inbox = node.io.inbox
     try:
         while not stopped() and (max_ticks is None or ticks < max_ticks):
             fb = node.receive(0.05)
@@ -551,6 +564,10 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
             first = now if first is None else first
             if duration_s is not None and now - first > duration_s:
                 break
+            newest = inbox.torso or node.torso
+            if (newest is not None and newest.seq == fb.seq - 1
+                    and not node.io.await_torso(fb.seq, LOCKSTEP_TORSO_WAIT_S)):
+                node.lockstep_torso_missing += 1
             node.safe_tick(now, fb)
             ticks += 1
     finally:

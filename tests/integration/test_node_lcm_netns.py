@@ -25,7 +25,7 @@ from spine_module.messages import FingerprintError, MessageError, channels, code
 from spine_module.node import NodeConfig
 from spine_module.safety import SafetyConfig
 from tests import lcm_mark
-from tests.node_netns import PERIOD, K, udp_rcvbuf_errors, unshare_prefix
+from tests.node_netns import PERIOD, K, logger_loss_allowance, udp_rcvbuf_errors, unshare_prefix
 
 pytestmark = [pytest.mark.netns,
               pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")]
@@ -43,8 +43,9 @@ def test_processes_ran_and_answered_every_tick(lcm_run):
     node = json.loads((out / "node.json").read_text())
     assert robot["ticks"] == round(PERIOD * 1000) and robot["unanswered"] == 0, logs
     assert node["ticks"] == robot["ticks"] and node["rejected"] == 0 and not robot["latched"]
-    # spine states are fire-and-forget UDP: a loaded machine may drop some at a full receive buffer, and
-    # the kernel counts each; a state lost any other way (never sent, never read) is a failure
+    # spine states are fire-and-forget UDP: a loaded machine may drop some at the robot's full receive
+    # buffer, and the kernel counts each (the robot dispatches on every lockstep tick, so its own LCM queue
+    # of 30 messages per subscription does not fill)
     drops = udp_rcvbuf_errors(out / "udp_snmp.txt")
     assert robot["node_states"] >= robot["ticks"] - drops, (robot["node_states"], drops)
 
@@ -93,15 +94,11 @@ def test_logger_replay_through_decoder(lcm_run):
     summary = json.loads((out / "summary.json").read_text())
     # one feedback and one answer per tick (+ retransmitted ticks, + the node's stop on exit). The logger
     # was subscribed before the first tick and had received everything before it was stopped (the marks);
-    # a logger descheduled long enough for its socket buffer to fill loses datagrams, which the kernel
-    # counts (drops, any socket in the namespace): every other missing datagram is a failure
-    drops = udp_rcvbuf_errors(out / "udp_snmp.txt")
+    # a descheduled logger loses datagrams at its socket (counted by the kernel) or in its own LCM queue
+    allowed = logger_loss_allowance(out, n)
     per_tick = (channels.MOTOR_FEEDBACK, channels.MOTOR_COMMAND, channels.TORSO_STATE, channels.SPINE_STATE)
     for ch in per_tick:
-        assert counts[ch] <= n + 1 + summary["retransmits"], (ch, counts[ch])
-    missing = sum(max(0, n - counts[ch]) for ch in per_tick)
-    assert missing <= drops, ({ch: counts[ch] for ch in per_tick}, f"kernel-counted drops {drops}")
-    assert min(counts[ch] for ch in per_tick) >= 0.5 * n, "the log holds less than half the session"
+        assert n - allowed <= counts[ch] <= n + 1 + summary["retransmits"], (ch, counts[ch], allowed)
     assert counts[channels.HEARTBEAT_ROBOT] >= n // 20 and counts[channels.SPINE_COMMAND] >= n // 20
     # the replayed states are the states the robot received, field for field
     by_seq = {int(sq): i for i, sq in enumerate(a["node_seq"])}

@@ -20,7 +20,7 @@ from sparc_quad.gap.trial import TrialError, load_lcm_log, load_trial
 from sparc_quad.gap.workflow import load_trials
 from spine_module import params as P
 from spine_module.messages import SpineState, TorsoState, channels, codec
-from tests.node_netns import PERIOD, unshare_prefix
+from tests.node_netns import PERIOD, logger_loss_allowance, unshare_prefix
 
 needs_netns = pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")
 
@@ -39,12 +39,13 @@ def test_recorded_session_loads_as_trial(lcm_run):
     assert len(tr.t) == n, logs
     np.testing.assert_allclose(np.diff(tr.t), 1e-3, rtol=1e-9)
     filled = np.isin(tr.t, tr.meta["source"]["filled_t"])
-    assert filled.sum() <= 0.02 * n
+    allowed = logger_loss_allowance(out, n)
+    assert filled.sum() <= allowed
     # every recorded row is, field for field, the state the robot received from the node (by stamp,
     # should the robot or the logger have missed a datagram)
     rows = {float(s): i for i, s in enumerate(a["node_stamp_s"])}
     mine = [i for i in range(n) if not filled[i] and float(tr.t[i]) in rows]
-    assert len(mine) >= 0.98 * n
+    assert len(mine) >= n - filled.sum() - (n - len(rows))  # all but those the logger or the robot lacks
     theirs = [rows[float(tr.t[i])] for i in mine]
     np.testing.assert_array_equal(tr.q[mine], a["node_q"][theirs, 1:])
     np.testing.assert_array_equal(tr.dq[mine], a["node_dq"][theirs, 1:])
