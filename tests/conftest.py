@@ -73,7 +73,7 @@ export PYTHONPATH={shlex.quote(str(ROOT))}
 {py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 2 --soft-start 0 \
     --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
 NODE=$!
-NICE=""; nice -n -5 true 2>/dev/null && NICE="nice -n -5"
+NICE=""; [ "$(nice -n -5 nice 2>/dev/null)" = "-5" ] && NICE="nice -n -5"  # only where it takes effect
 $NICE {shlex.quote(lcm_tool("lcm-logger"))} -q --lcm-url={url} -f {out}/session.lcmlog \
     > {out}/logger.out 2>&1 &
 LOGGER=$!

@@ -57,8 +57,9 @@ def udp_rcvbuf_errors(path: Path) -> int:
     return int(values[header.index("RcvbufErrors")])
 
 
-# lcm-logger's own LCM queue (30 messages per subscription, no counter) drops when its dispatching thread
-# is descheduled: at load, 3 whole ticks with no kernel drop were seen here, 45 of 2000 states on CI
+# lcm-logger's own LCM queue (30 messages per subscription by LCM's default, no counter) drops when its
+# dispatching thread is descheduled: at load, 3 whole ticks were missing here with no kernel drop; CI once
+# lacked 45 of 2000 states (before the counters were kept, so its cause is not known)
 LOGGER_QUEUE_LOSS = 0.05
 
 

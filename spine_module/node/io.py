@@ -110,6 +110,11 @@ class Inbox:
         return out
 
 
+def _has_torso(inbox: Inbox, seq: int) -> bool:
+    t = inbox.torso
+    return t is not None and t.seq >= seq
+
+
 class NodeIO:
     """Base: an inbox and two outputs. Subclasses move bytes."""
 
@@ -123,8 +128,7 @@ class NodeIO:
     def await_torso(self, seq: int, timeout_s: float) -> bool:
         """Whether the inbox holds a torso state of tick `seq` or later, waiting up to `timeout_s` for it
         where the transport can deliver it late. In-process delivery is synchronous: nothing to wait for."""
-        t = self.inbox.torso
-        return t is not None and t.seq >= seq
+        return _has_torso(self.inbox, seq)
 
     def publish_state(self, state: SpineState) -> None:
         raise NotImplementedError
@@ -220,15 +224,13 @@ class LcmNodeIO(NodeIO):
         feedback can be dispatched before the torso state the robot published ahead of it (seen at load:
         68 of 2500 lockstep ticks ran on the previous tick's q1). Dispatch until it is in, or timeout_s."""
         inbox = self.inbox
-        t = inbox.torso
-        if t is not None and t.seq >= seq:
+        if _has_torso(inbox, seq):
             return True
         self.torso_waits += 1
         deadline = time.perf_counter() + timeout_s
         while True:
             self.lc.handle_timeout(1)  # ms: one message, or a 1 ms wait
-            t = inbox.torso
-            if t is not None and t.seq >= seq:
+            if _has_torso(inbox, seq):
                 return True
             if time.perf_counter() >= deadline:
                 return False
