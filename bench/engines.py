@@ -40,7 +40,7 @@ from pathlib import Path
 
 from sparc_quad.sim.bound_run import PROFILE_PHASES, run_bound
 from sparc_quad.sim.engines import ENGINES, engine_error
-from sparc_quad.study.fixed_trial import bound_config
+from sparc_quad.study.trial import config_of as bound_config
 
 GOAL_SIM_S_PER_CPU_S = 20.0
 GOAL_PHYSICS_SHARE = 0.5

@@ -28,7 +28,7 @@ def grid(duration: float) -> list[dict]:
     from dataclasses import replace
 
     from sparc_quad.sim.bound_run import run_bound
-    from sparc_quad.study.trial import bound_config
+    from sparc_quad.study.trial import config_of as bound_config
 
     rows = []
     for kp, kd, step, height, f, direction in itertools.product(KP, KD, L, H, F, DIRECTION):

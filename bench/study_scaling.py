@@ -30,13 +30,8 @@ def spec(trials: int, duration: float):
     ks = [300.0 + 100.0 * i for i in range(trials)]
     return parse_spec(
         {
-            "study": {
-                "name": "scaling",
-                "gait": "raibert",
-                "duration": duration,
-                "seeds": [0],
-                "speeds": [0.9],
-            },
+            "study": {"name": "scaling", "seeds": [0]},
+            "scenario": {"gait": "raibert", "duration": duration, "speed": 0.9},
             "grid": {"spine": ["impedance"], "kx": ks},
         }
     )

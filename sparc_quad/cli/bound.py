@@ -12,188 +12,190 @@ import threading
 from pathlib import Path
 
 from sparc_quad.cli.args import (
-    SIM_DURATION_MAX_S,
     WAIT_MAX_S,
-    add_gain_options,
     add_spin_option,
     add_wake_latency_option,
-    damping,
-    fraction_open,
-    in_range,
+    existing_file,
     lcm_url,
     output_dir,
-    seed,
-    sim_duration,
-    stiffness,
     wait_s,
 )
 from sparc_quad.cli.errors import BadInput, bad_input
 from sparc_quad.cli.output import atomic_dir, moved
-from sparc_quad.gaits.bound import BoundParams
-from sparc_quad.gaits.sine_bound import SineBoundParams
 from sparc_quad.jsonfmt import json_text
-from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES, engine_error
-from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
-from sparc_quad.sim.imu import ImuConfig
-from sparc_quad.sim.quadruped_world import BASE_MOTIONS
+from sparc_quad.scenario import (
+    DEFAULTS,
+    GAITS,
+    KEYS,
+    Key,
+    Scenario,
+    ScenarioError,
+    bound_config,
+    load_scenario,
+)
+from sparc_quad.sim.engines import engine_error
 from spine_module.messages import channels
 
 log = logging.getLogger(__name__)
 
-FREQUENCY_MAX_HZ = 10.0  # strides per second; a stance of < 25 control ticks cannot shape its force
-SPEED_MAX_M_S = 10.0  # far beyond any quadruped of this size; `check_gait` below is the real limit
-STRIDE_MAX_M = 2.0
-BODY_KP_MAX = 1000.0  # N*m/rad: 0.01 rad of attitude error would already ask 10 N*m
-BODY_KD_MAX = 100.0  # N*m*s/rad
-IMU_NOISE_MAX_RAD = 1.0
-IMU_DELAY_MAX_STEPS = 1000  # 1 s at 1 kHz
 SPEED_SHORTFALL = 0.75  # mean speed below this fraction of the target: the gait did not reach it
+GROUPS = {  # scenario keys by option group, in the order --help lists them
+    "the robot and its world": ("host", "engine", "slope", "seed", "duration", "settle", "latency_steps"),
+    "the gait": ("gait", "speed", "stride", "frequency", "step_height", "duty", "body_kp", "body_kd",
+                 "phase_offset", "raibert_gain", "variant", "step_length", "hip_depth", "direction",
+                 "adapt_frequency"),
+    "the spine": ("spine", "spine_path", "kx", "kz", "kth", "dx", "dz", "dth", "friction_comp", "schedule",
+                  "spine_rate_hz"),
+    "the torso estimator": ("imu_noise", "imu_bias", "imu_delay", "base_motion"),
+}
+
+
+def option(name: str) -> str:
+    """The command-line spelling of scenario key `name`."""
+    return "--" + name.replace("_", "-")
+
+
+def _parse(key: Key):
+    """An argparse type for a scenario key: the key's own check, its message as argparse's error."""
+
+    def parse(text: str):
+        if key.kind is int or key.kind is float:
+            try:
+                value = key.kind(text) if key.kind is float else int(text, 10)
+            except ValueError:
+                raise argparse.ArgumentTypeError(
+                    f"expected {'an integer' if key.kind is int else 'a number'}, got {text!r}") from None
+        else:
+            value = text
+        try:
+            return key.check(value)
+        except ScenarioError as exc:
+            raise argparse.ArgumentTypeError(exc.reason) from None
+
+    parse.__name__ = {float: "number", int: "integer", str: "name"}[key.kind]
+    return parse
+
+
+def _help(key: Key) -> str:
+    unit = f", {key.unit}" if key.unit else ""
+    span = f" in {key.span()}" if key.kind in (int, float) else ""
+    default = DEFAULTS[key.name]
+    if default is None:
+        shown = "the robot's and gait's"
+    elif isinstance(default, bool):
+        shown = "on" if default else "off"
+    else:
+        shown = f"{default:g}" if isinstance(default, float) else str(default)
+    where = []
+    if key.gaits != GAITS:
+        where.append(f"gait {'/'.join(key.gaits)}")
+    if set(key.spines) != set(KEYS["spine"].choices):
+        where.append(f"spine {'/'.join(key.spines)}")
+    acts = f"; acts with {' and '.join(where)} only" if where else ""
+    default_text = "" if "default" in key.help else f" (default: {shown})"
+    return f"{key.help}{unit}{span}{acts}{default_text}".replace("%", "%%")
+
+
+def add_scenario_options(p: argparse.ArgumentParser) -> None:
+    """One option per scenario key (`sparc_quad.scenario.KEYS`), absent from the namespace unless given."""
+    listed = [n for names in GROUPS.values() for n in names]
+    if sorted(listed) != sorted(KEYS):
+        odd = sorted(set(KEYS) ^ set(listed))
+        raise RuntimeError(f"bound: GROUPS must list every scenario key once: {odd}")
+    for title, names in GROUPS.items():
+        g = p.add_argument_group(title)
+        for name in names:
+            key = KEYS[name]
+            if key.kind is bool:
+                g.add_argument(option(name), dest=name, action=argparse.BooleanOptionalAction,
+                               default=argparse.SUPPRESS, help=_help(key))
+            elif key.choices is not None:
+                g.add_argument(option(name), dest=name, choices=list(key.choices), default=argparse.SUPPRESS,
+                               help=_help(key))
+            else:
+                g.add_argument(option(name), dest=name, type=_parse(key), default=argparse.SUPPRESS,
+                               metavar=key.unit.upper().replace("*", "").replace("/", "_").replace(" ", "_")
+                               or "N", help=_help(key))
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "bound",
         help="bound the SPARC-spined quadruped in pybullet or MuJoCo and measure it",
-        description="Simulate the quadruped with the SPARC spine bounding (pybullet or MuJoCo, 1 kHz). "
-        "Writes metrics.json, timeseries.csv and (unless --no-plots) PNG plots to --out.",
+        description="Simulate the quadruped with the SPARC spine bounding (pybullet or MuJoCo, 1 kHz). Every "
+        "option below the run options is a key of the run's scenario (sparc_quad.scenario; a study spec "
+        "uses the same keys in snake_case). Writes scenario.json (the resolved scenario: re-run it with "
+        "--scenario), metrics.json, timeseries.csv and (unless --no-plots) PNG plots to --out.",
     )
-    g, sg, imu = BoundParams(), SineBoundParams(), ImuConfig()
-    add_gain_options(p)
-    p.add_argument("--duration", type=sim_duration, default=10.0,
-                   help=f"simulated time, s, at most {SIM_DURATION_MAX_S:g} (the log is kept in memory)")
-    p.add_argument("--speed", type=in_range(0.0, SPEED_MAX_M_S), default=g.speed_m_s,
-                   help="target forward speed, m/s; refused if its stance stride is beyond the legs' reach")
-    p.add_argument("--gait", choices=["raibert", "sine"], default="raibert",
-                   help="raibert: gait B, the Raibert-style bound (default); sine: gait A, the SPARC "
-                        "authors' open-loop sine bound (sparc_quad/gaits/sine_bound.py)")
-    p.add_argument("--frequency", type=in_range(0.0, FREQUENCY_MAX_HZ, lo_open=True), default=None,
-                   help=f"stride frequency, Hz (default: {g.frequency_hz} raibert, {sg.frequency_hz} sine)")
-    p.add_argument("--stride", type=in_range(0.0, STRIDE_MAX_M, lo_open=True), default=None,
-                   help="stride length, m; sets the target speed to stride * frequency (overrides --speed)")
-    p.add_argument("--step-height", type=in_range(0.0, g.height_m), default=None,
-                   help=f"swing foot clearance, m (default: {g.step_height_m} raibert, "
-                        f"{sg.step_height_m} sine)")
-    p.add_argument("--step-length", type=in_range(0.0, STRIDE_MAX_M), default=sg.step_length_m,
-                   help="--gait sine: L, half the fore-aft foot excursion about the hip (x = L cos phi), m")
-    p.add_argument("--duty", type=fraction_open, default=None,
-                   help="stance fraction of each leg pair (default: 0.5 at <= 0.3 m/s to 0.45 at >= 0.6 m/s)")
-    p.add_argument("--slope", type=in_range(-math.pi / 2, math.pi / 2, lo_open=True, hi_open=True),
-                   default=0.0, help="ground slope, rad, in (-pi/2, pi/2); > 0 uphill")
-    p.add_argument("--rigid-spine", action="store_true",
-                   help="baseline: spine joints locked at the equilibrium arch (pybullet fixed constraints)")
-    p.add_argument("--spine-variant", choices=["impedance", "passive", "rigid", "rigid-impedance"],
-                   default="impedance",
-                   help="impedance: motor-rendered (default); passive: an ideal spring-damper with the same "
-                        "gains (no actuator work); rigid: locked joints (= --rigid-spine); rigid-impedance: "
-                        "the controller at k = 1e4 N/m")
-    p.add_argument("--body-kp", type=in_range(0.0, BODY_KP_MAX), default=g.body_kp,
-                   help="stance attitude servo per body, N*m/rad (pushes against spine flexion; 0 = off)")
-    p.add_argument("--body-kd", type=in_range(0.0, BODY_KD_MAX), default=g.body_kd,
-                   help="its damping, N*m*s/rad")
-    p.add_argument("--friction-comp", action="store_true",
-                   help="enable the controller's friction compensation")
-    p.add_argument("--imu-noise", type=in_range(0.0, IMU_NOISE_MAX_RAD), default=imu.q1_noise_rad,
-                   help="estimator q1 noise (standard deviation), rad")
-    p.add_argument("--imu-bias", type=in_range(-math.pi, math.pi), default=0.0,
-                   help="estimator q1 bias, rad")
-    p.add_argument("--imu-delay", type=in_range(0, IMU_DELAY_MAX_STEPS, kind=int), default=imu.delay_steps,
-                   help="estimator delay, 1 ms steps")
-    p.add_argument("--base-motion", choices=list(BASE_MOTIONS), default=None,
-                   help="what the torso estimate tells the spine law of the base's linear motion: fixed, "
-                        "nothing (the base joint's origin does not accelerate: the paper's law, eq. 3); "
-                        "constant-twist, the acceleration of the base joint's origin, m/s^2 in the hind-body "
-                        "frame, of a body moving at a constant body-frame twist (v, w): a = w x v, the "
-                        "assumption of the SPARC authors' law, from the hind body's true twist; "
-                        "authors-cvel, the same a = w x v of what the authors' released code feeds that law: "
-                        "MuJoCo's cvel "
-                        "of the hind body one step late (w its angular velocity, v the velocity of the point "
-                        "at the whole robot's centre of mass moving with it, both in world axes, read as if "
-                        "they were the body-frame twist: their reading, not a physically consistent body "
-                        "twist; pybullet computes the same quantity; needs --imu-delay >= 1 in MuJoCo). "
-                        "Default: authors-cvel where the run is the authors' (--gait sine --host "
-                        "spined-dog), fixed everywhere else")
-    p.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run")
-    p.add_argument("--host", choices=HOSTS, default=DEFAULT_HOST,
-                   help="host robot (robots/sparc_<host>, robots/spined_dog)")
-    p.add_argument("--engine", choices=list(ENGINES), default=DEFAULT_ENGINE,
-                   help="physics engine (mujoco needs the [mujoco] extra)")
-    p.add_argument("--spine", choices=["direct", "node"], default="direct",
-                   help="node: the spine node in this process on the in-process bus (the reference: soft "
-                        "start, limits, watchdogs, CyberGear-quantised feedback); direct: the same "
-                        "controller called in process with the node's limit damping and torque clamp, "
-                        "without soft start, watchdogs or quantisation (fastest)")
-    p.add_argument("--backend", choices=["auto", "numba", "python"], default="auto",
-                   help="per-step code: numba (compiled spine step and bound controller; ~0.7 s CPU to load "
-                        "per process), python (the reference paths), auto (default): numba for runs of "
-                        "8 s or longer")
-    p.add_argument("--lcm", action="store_true",
-                   help="the spine node is another process (`sparc-quad spine-node --motors lcm`), over LCM; "
-                        "lockstep unless --realtime")
-    p.add_argument("--lcm-url", type=lcm_url, default=channels.DEFAULT_URL,
-                   help="--lcm: LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
-    p.add_argument("--lcm-node-states", action="store_true",
-                   help="--lcm: also receive the node's spine states (SPARC_SPINE_STATE, 1 kHz) and write "
-                        "them to node_states.npz. Off by default: each state wakes LCM's receiving thread "
-                        "beside the simulation (measured ~30 %% of this process's CPU per tick on 2 vCPUs); "
-                        "`lcm-logger` records them outside this process")
-    add_spin_option(p, "--lcm-spin-us")
-    add_wake_latency_option(p, "--lcm-wake-latency-us", when="--lcm: ")
-    p.add_argument("--wait-node", type=wait_s, default=30.0,
-                   help=f"--lcm: wait this long (wall s, up to {WAIT_MAX_S:g}) for the node's first "
-                        "heartbeat")
-    p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    p.add_argument("--out", type=output_dir, default=Path("out/bound"), help="output folder")
+    r = p.add_argument_group("the run")
+    r.add_argument("--scenario", type=existing_file, default=None, metavar="FILE",
+                   help="start from this scenario (.toml or .json; a bound's scenario.json or a study trial "
+                        "record re-runs that run); options given beside it override its keys")
+    r.add_argument("--out", type=output_dir, default=Path("out/bound"), help="output folder")
+    r.add_argument("--video", action="store_true", help="also render bound.gif (pybullet ER_TINY_RENDERER)")
+    r.add_argument("--no-plots", action="store_true",
+                   help="write scenario.json, metrics.json and timeseries.csv only (no PNGs; matplotlib "
+                        "is not imported)")
+    r.add_argument("--backend", choices=["auto", "numba", "python"], default="auto",
+                   help="per-step code, the same results: numba (compiled spine step and bound controller; "
+                        "~0.7 s CPU to load per process), python (the reference paths), auto (default): "
+                        "numba for runs of 8 s or longer")
+    r.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    add_scenario_options(p)
+    lcm = p.add_argument_group("the spine node in another process (--lcm)")
+    lcm.add_argument("--lcm", action="store_true",
+                     help="the spine node is another process (`sparc-quad spine-node --motors lcm`), over "
+                          "LCM; lockstep unless --realtime (implies --spine-path node)")
+    lcm.add_argument("--lcm-url", type=lcm_url, default=channels.DEFAULT_URL,
+                     help="--lcm: LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
+    lcm.add_argument("--lcm-node-states", action="store_true",
+                     help="--lcm: also receive the node's spine states (SPARC_SPINE_STATE, 1 kHz) and write "
+                          "them to node_states.npz. Off by default: each state wakes LCM's receiving "
+                          "thread beside the simulation (measured ~30 %% of this process's CPU per tick on 2 "
+                          "vCPUs); `lcm-logger` records them outside this process")
+    add_spin_option(lcm, "--lcm-spin-us")
+    add_wake_latency_option(lcm, "--lcm-wake-latency-us", when="--lcm: ")
+    lcm.add_argument("--wait-node", type=wait_s, default=30.0,
+                     help=f"--lcm: wait this long (wall s, up to {WAIT_MAX_S:g}) for the node's first "
+                          "heartbeat")
     p.set_defaults(lcm_only_defaults={name: p.get_default(name) for name in LCM_ONLY})
-    p.add_argument("--video", action="store_true", help="also render bound.gif (pybullet ER_TINY_RENDERER)")
-    p.add_argument("--no-plots", action="store_true",
-                   help="write metrics.json and timeseries.csv only (no PNGs; matplotlib is not imported)")
     p.set_defaults(func=run, extra="sim")
+
+
+def given_keys(args: argparse.Namespace) -> dict:
+    """The scenario keys given on the command line (the others are absent: argparse.SUPPRESS)."""
+    return {name: getattr(args, name) for name in KEYS if hasattr(args, name)}
+
+
+def scenario_from_args(args: argparse.Namespace) -> Scenario:
+    """The run's scenario: `--scenario FILE` (or the defaults) with the given options on top; BadInput
+    naming the option (or the file's key) on anything that cannot run."""
+    given = given_keys(args)
+    if getattr(args, "lcm", False):
+        if given.get("spine_path", "node") != "node":
+            raise BadInput("--spine-path direct with --lcm: the node in another process is the node path")
+        given["spine_path"] = "node"
+    try:
+        base = load_scenario(args.scenario) if args.scenario is not None else Scenario()
+    except ScenarioError as exc:
+        raise BadInput(f"--scenario {args.scenario}: {exc}") from None
+    try:
+        return base.with_overrides(given)
+    except ScenarioError as exc:
+        if exc.key in given:
+            raise BadInput(f"{option(exc.key)}: {exc.reason}") from None
+        where = f" (with --scenario {args.scenario})" if args.scenario is not None else ""
+        raise BadInput(f"{option(exc.key) if exc.key else 'scenario'}: {exc.reason}{where}") from None
 
 
 def config_from_args(args: argparse.Namespace):
     """The run's BoundConfig (imports the simulator)."""
-    from sparc_quad.sim.bound_run import BoundConfig
-    from sparc_quad.sim.quadruped_world import WorldConfig
-    from sparc_quad.sim.spine_drive import SpineGains
+    from dataclasses import replace
 
-    given = {k: v for k, v in (("frequency_hz", args.frequency), ("step_height_m", args.step_height))
-             if v is not None}
-    if args.gait == "sine":
-        gait = SineBoundParams(step_length_m=args.step_length, **given)
-    else:
-        gait = BoundParams(speed_m_s=args.speed, duty=args.duty, body_kp=args.body_kp, body_kd=args.body_kd,
-                           **given)
-        if args.stride is not None:
-            gait = gait.with_stride(args.stride)
-    imu = ImuConfig(q1_noise_rad=args.imu_noise, q1_bias_rad=args.imu_bias, delay_steps=args.imu_delay)
-    world = WorldConfig(host=args.host, engine=args.engine, slope_rad=args.slope, seed=args.seed, imu=imu,
-                        base_motion=args.base_motion or "fixed")
-    if args.gait == "sine" and args.host == "spined-dog":  # their robot: their whole run (authors_run)
-        from dataclasses import replace
-
-        from sparc_quad.gaits import authors_run
-
-        cfg = authors_run.bound_config(args.step_length, args.kx, args.duration, args.engine, **given)
-        # the estimator options as given, else (all at their defaults) the exact, noise-free estimator
-        world = replace(cfg.world, slope_rad=args.slope, seed=args.seed,
-                        imu=imu if imu != ImuConfig() else cfg.world.imu,
-                        base_motion=args.base_motion or cfg.world.base_motion)
-        return replace(cfg, world=world,
-                       spine_variant="rigid" if args.rigid_spine else args.spine_variant,
-                       friction_compensation=args.friction_comp, stop_on_fall=False, realtime=args.realtime,
-                       backend=args.backend)
-    spine = SpineGains(k=stiffness(args), d=damping(args))
-    return BoundConfig(
-        duration_s=args.duration,
-        gait=gait,
-        world=world,
-        spine=spine,
-        spine_variant="rigid" if args.rigid_spine else args.spine_variant,
-        friction_compensation=args.friction_comp,
-        stop_on_fall=False,
-        realtime=args.realtime,
-        backend=args.backend,
-    )
+    scenario = scenario_from_args(args)
+    with bad_input(ValueError, prefix="--gait sine: "):
+        cfg = bound_config(scenario)
+    return replace(cfg, realtime=args.realtime, backend=args.backend)
 
 
 def check_world(cfg) -> None:
@@ -261,7 +263,7 @@ def lcm_only_given(args: argparse.Namespace) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from sparc_quad.sim.bound_run import run_bound, write_outputs
+    from sparc_quad import api
 
     if not args.lcm and lcm_only_given(args):
         raise BadInput(f"{', '.join(lcm_only_given(args))} act only with --lcm (the spine node in another "
@@ -269,15 +271,14 @@ def run(args: argparse.Namespace) -> int:
 
     if args.video and args.no_plots:
         raise BadInput("--video renders bound.gif with matplotlib: it cannot be combined with --no-plots")
-    missing = engine_error(args.engine)
+    scenario = scenario_from_args(args)
+    missing = engine_error(scenario.engine)
     if missing is not None:
         raise BadInput(missing)
     cfg = config_from_args(args)
     check_gait(cfg)
     check_world(cfg)
     spine = None
-    if (args.rigid_spine or args.spine_variant != "impedance") and (args.lcm or args.spine == "node"):
-        raise BadInput("--rigid-spine / --spine-variant other than impedance do not use the spine node")
     if args.lcm:
         from sparc_quad.robot_side.quad import NodeSpine
         from spine_module.node import realtime
@@ -293,17 +294,6 @@ def run(args: argparse.Namespace) -> int:
         except TimeoutError as exc:
             raise BadInput(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` "
                            "first") from exc
-    elif args.spine == "node":
-        from sparc_quad.robot_side.quad import NodeSpine
-
-        node_config = None
-        if args.gait == "sine" and args.host == "spined-dog":
-            from sparc_quad.gaits import authors_run
-
-            node_config = authors_run.node_config()
-        spine = NodeSpine.inprocess(cfg.spine, cfg.friction_compensation, node_config=node_config,
-                                    schedule=cfg.spine_schedule, spine=cfg.spine_params,
-                                    torso_accel=cfg.spine_torso_accel)
     # Ctrl-C sets a flag that the loop and the steps below check, so KeyboardInterrupt is raised in Python
     # code: raised inside a compiled extension's call it was, rarely, lost or reported twice (exit 0 or
     # death by SIGINT instead of 130; seen with the numba kernels loaded, ~1 run in 25 under load).
@@ -312,10 +302,11 @@ def run(args: argparse.Namespace) -> int:
     old_handler = None if args.lcm else signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
     try:
         with atomic_dir(args.out) as tmp:  # --out keeps its previous result until this one is complete
-            result = run_bound(cfg, spine=spine, video=args.video, stop=stop.is_set)
+            result = api.run_bound(scenario, spine=spine, video=args.video, stop=stop.is_set,
+                                   realtime=args.realtime, backend=args.backend)
             if stop.is_set():
                 raise KeyboardInterrupt
-            paths = moved(write_outputs(result, tmp, plots=not args.no_plots), tmp, args.out)
+            paths = moved(api.write_outputs(result, tmp, plots=not args.no_plots), tmp, args.out)
             if stop.is_set():
                 raise KeyboardInterrupt
     finally:

@@ -43,9 +43,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "study",
         help="run and report spine-stiffness studies (grids of bound trials)",
-        description="Studies: a TOML spec ([study] gait, duration, seeds, speeds, slopes; [grid] "
-        "bound options with lists, spine = [impedance, passive, rigid]) expanded into "
-        "trials, each stored as one record; reruns execute only missing trials.",
+        description="Studies: a TOML spec ([study] name, seeds; [scenario] the base run: any "
+        "`sparc-quad bound` option in snake_case, one value each; [grid] the same keys with lists of values) "
+        "expanded into trials, each the base scenario with one cell's values on top, each stored as one "
+        "record with its resolved scenario (`sparc-quad bound --scenario RECORD` re-runs it); reruns "
+        "execute only missing trials.",
     )
     ssub = p.add_subparsers(dest="study_command", metavar="ACTION", required=True)
     r = ssub.add_parser(

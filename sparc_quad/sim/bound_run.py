@@ -60,6 +60,7 @@ class BoundResult:
     wall_s: float
     frames: list = field(default_factory=list)
     node_states: dict | None = None  # the spine node's states (node and LCM paths)
+    scenario: object | None = None  # the `sparc_quad.scenario.Scenario` it ran, when it came from one
 
     def column(self, name: str) -> np.ndarray:
         return self.series[:, COLUMNS.index(name)]
@@ -406,6 +407,13 @@ def run_facts(s: np.ndarray, cfg: BoundConfig, mass: float, fell: bool, fall_t: 
         "spine_k": list(cfg.spine.k),
         "spine_d": list(cfg.spine.d),
     }
+
+
+# units of the run facts (`run_facts`) and loop figures in metrics.json; the metrics' own are in
+# sparc_quad.metrics.TABLE
+FACT_UNITS = {"fall_time_s": "s", "simulated_s": "s", "window_s": "s", "mass_kg": "kg", "slope_rad": "rad",
+              "target_speed_m_s": "m/s", "spine_k": "N/m, N/m, N*m/rad", "spine_d": "N*s/m, N*s/m, N*m*s/rad",
+              "wall_time_s": "s (wall)", "physics_wall_time_s": "s (wall)", "held_steps": "steps"}
 
 
 def config_dict(cfg: BoundConfig) -> dict:

@@ -51,6 +51,9 @@ def execute(config: dict, version: str, trial_hash: str) -> dict:
         if not isinstance(metrics, dict):
             raise TypeError(f"trial function returned {type(metrics).__name__}, not a dict")
         rec.update(status="ok", error=None, metrics=metrics)
+        scenario = importlib.import_module("sparc_quad.study.trial").record_scenario(config, metrics)
+        if scenario is not None:  # what `sparc-quad bound --scenario <record>` runs again
+            rec["scenario"] = scenario
     except Exception as exc:
         rec.update(
             status="failed",

@@ -28,6 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from sparc_quad.scenario.model import DURATION_MAX_S
 from sparc_quad.study.fixed_trial import check_config
 from sparc_quad.study.fixed_trial import run_fixed_trial as run_trial
 
@@ -45,6 +46,7 @@ FALL_PENALTY = 10.0
 SPEED_PENALTY_PER_M_S = 50.0
 OBJECTIVE = "cot_pos_total"  # the metric the study judges
 MIN_EVAL_S = 6.0  # an evaluation is judged after the start-up ramp: window in its second half at least
+MAX_EVALUATIONS = 10_000  # simulated trials of one cell's search
 OPT_KEYS = ("popsize", "iterations", "opt_duration", "opt_seed", "opt_restarts", "opt_trial_seeds", "tuned")
 _CELL_SKIP = ("seed", "duration", "tuned")
 
@@ -81,6 +83,27 @@ def _base(config: dict) -> dict:
     return base
 
 
+def check_search(config: dict) -> None:
+    """ValueError naming a bad search key (counts, evaluation time) or a bad base scenario."""
+    for key, default, least in (("popsize", 6, 2), ("iterations", 5, 1), ("opt_restarts", 2, 1),
+                                ("opt_trial_seeds", 2, 1), ("opt_seed", 0, 0)):
+        v = config.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, int) or v < least:
+            raise ValueError(f"{key}: must be an integer >= {least}, got {v!r}")
+    if int(config.get("popsize", 6)) * int(config.get("iterations", 5)) * int(config.get("opt_restarts", 2)) \
+            * int(config.get("opt_trial_seeds", 2)) > MAX_EVALUATIONS:
+        raise ValueError(f"popsize x iterations x opt_restarts x opt_trial_seeds: at most {MAX_EVALUATIONS} "
+                         "evaluations per cell")
+    d = config.get("opt_duration", MIN_EVAL_S)
+    if isinstance(d, bool) or not isinstance(d, int | float) or not MIN_EVAL_S <= d <= DURATION_MAX_S:
+        raise ValueError(f"opt_duration: must be in [{MIN_EVAL_S:g}, {DURATION_MAX_S:g}] s (judged after the "
+                         f"start-up ramp), got {d!r}")
+    tuned = config.get("tuned")
+    if tuned is not None and not isinstance(tuned, dict):
+        raise ValueError(f"tuned: must be a table of gait parameters, got {tuned!r}")
+    _base(config)
+
+
 def optimise_cell(config: dict) -> dict:
     """The tuned gait parameters of this cell (a dict of `raibert` config keys) + search statistics."""
     return dict(_optimise(cell_key(config)))
@@ -94,17 +117,12 @@ def _optimise(key: tuple) -> tuple:
     import cma
 
     config = dict(key)
+    check_search(config)
     popsize = int(config.get("popsize", 6))
     iterations = int(config.get("iterations", 5))
     restarts = int(config.get("opt_restarts", 2))
     trial_seeds = int(config.get("opt_trial_seeds", 2))
-    if popsize < 2 or iterations < 1 or restarts < 1 or trial_seeds < 1:
-        raise ValueError(f"raibert-opt needs popsize >= 2, iterations, opt_restarts, opt_trial_seeds >= 1, "
-                         f"got {popsize}, {iterations}, {restarts}, {trial_seeds}")
     duration = float(config.get("opt_duration", MIN_EVAL_S))
-    if duration < MIN_EVAL_S:
-        raise ValueError(f"opt_duration must be >= {MIN_EVAL_S:g} s (judged after the start-up ramp), got "
-                         f"{duration:g}")
     seed = int(config.get("opt_seed", 0))
     base = _base(config)
     target = float(base.get("speed", 0.6))

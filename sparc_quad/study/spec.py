@@ -1,9 +1,19 @@
-"""Study specification: a TOML file read, checked key by key, and expanded into one config per trial.
+"""Study specification: a base scenario and the keys a sweep overrides, checked key by key, sized before
+it is expanded, and expanded into one trial config per cell and seed.
 
-A spec has a `[study]` table (gait, duration s, seeds, speeds m/s, slopes rad) and a `[grid]` table whose
-keys are `sparc-quad bound` options in snake_case with lists of values, plus `spine`. The trials are the
-cartesian product; spines that do not render an impedance (rigid, rigid-impedance) do not vary k, d, so
-their repeats collapse into one trial per remaining combination.
+A spec is TOML with three tables:
+
+    [study]      name, description, seeds (a count: seeds 0..n-1, or a list of seeds)
+    [scenario]   the base scenario: any `sparc_quad.scenario` key (the `sparc-quad bound` options in
+                 snake_case), one value each
+    [grid]       scenario keys with lists of values; the trials are their cartesian product x seeds
+
+A trial config is the base scenario with one cell's grid values on top (as a Hydra sweep overrides the
+config a single run uses), so a one-cell study runs what `sparc-quad bound` runs with the same keys.
+`gait = "raibert-opt"` (the Raibert bound tuned per cell by CMA-ES) adds the search keys of
+`sparc_quad.study.raibert_opt`. A cell leaves out the keys that do not act on its spine (the gains of a
+locked or rigid-impedance spine, the controller options of a passive one), so a grid over spines and gains
+runs each fixed spine once per remaining combination.
 """
 
 from __future__ import annotations
@@ -12,41 +22,18 @@ import importlib
 import itertools
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
+from sparc_quad.scenario import KEYS, ScenarioError
+
 GAITS = ("sine", "raibert", "raibert-opt")
-SPINES = ("impedance", "passive", "rigid", "rigid-impedance")
-# spines whose k, d are fixed by the variant itself: the grid's k, d do not apply to them
-FIXED_SPINES = ("rigid", "rigid-impedance")
-# spine impedance options (stiffness N/m or N*m/rad, damping N*s/m or N*m*s/rad)
-SPINE_GAIN_KEYS = ("kx", "kz", "kth", "dx", "dz", "dth", "ktheta", "dtheta")
-# `sparc-quad bound` / trial options (snake_case) a grid may vary, by type; the trial function's own
-# check (sparc_quad.study.trial.check_config, when present) then judges each expanded config
-NONNEG_KEYS = (
-    *SPINE_GAIN_KEYS,
-    "frequency",
-    "stride",
-    "step_height",
-    "duty",
-    "step_length",
-    "spine_rate_hz",
-    "hip_depth",
-    "settle",
-    "body_kp",
-    "body_kd",
-    "raibert_gain",
-    "opt_duration",
-    "imu_noise",
-)
-SIGNED_KEYS = ("direction", "phase_offset", "imu_bias")
-INT_KEYS = ("popsize", "iterations", "opt_seed", "opt_restarts", "opt_trial_seeds", "imu_delay",
-            "latency_steps")
-NUMERIC_KEYS = NONNEG_KEYS + SIGNED_KEYS + INT_KEYS
-BOOL_KEYS = ("friction_comp", "adapt_frequency", "schedule")
-STR_KEYS = ("host", "engine", "variant")
-STUDY_KEYS = ("gait", "duration", "seeds", "speeds", "slopes", "name", "description")
-MAX_TRIALS = 100_000
+SPINES = KEYS["spine"].choices
+OPT_KEYS = ("popsize", "iterations", "opt_duration", "opt_seed", "opt_restarts", "opt_trial_seeds")
+STUDY_KEYS = ("name", "description", "seeds")
+MOVED = {"gait": "gait", "duration": "duration", "speeds": "speed", "slopes": "slope"}
+MAX_TRIALS = 100_000  # refused at once above this (the count is computed before anything is built)
+SEEDS_MAX = 10_000
 
 
 class SpecError(ValueError):
@@ -56,29 +43,40 @@ class SpecError(ValueError):
 @dataclass(frozen=True)
 class Spec:
     name: str
-    gaits: tuple[str, ...]
-    duration_s: float
     seeds: tuple[int, ...]
-    speeds_m_s: tuple[float, ...]
-    slopes_rad: tuple[float, ...]
-    grid: dict[str, tuple]  # key -> values, `spine` included
+    base: dict = field(default_factory=dict)  # [scenario]
+    grid: dict[str, tuple] = field(default_factory=dict)  # key -> values
+    description: str = ""
     source: str = ""
+
+    def size(self) -> int:
+        """Trials before duplicates collapse: an upper bound computed without expanding."""
+        return len(self.seeds) * math.prod(len(v) for v in self.grid.values())
 
     def trials(self) -> list[dict]:
         """One config dict per trial, in a stable order, duplicates removed."""
         return expand(self)
 
 
-def _number(key: str, v, *, positive: bool = False, integer: bool = False) -> float | int:
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise SpecError(f"{key}: expected a number, got {v!r}")
-    if not math.isfinite(v):
-        raise SpecError(f"{key}: expected a finite number, got {v!r}")
-    if integer and (not isinstance(v, int)):
-        raise SpecError(f"{key}: expected an integer, got {v!r}")
-    if positive and v <= 0:
-        raise SpecError(f"{key}: must be > 0, got {v!r}")
-    return v
+def _value(where: str, name: str, value):
+    """One value of key `name`, checked as the scenario checks it (ints widened to float for float keys,
+    so 800 and 800.0 are one trial)."""
+    if name == "gait":
+        if value not in GAITS:
+            raise SpecError(f"{where}: {value!r} is not one of {', '.join(GAITS)}")
+        return value
+    if name in OPT_KEYS:
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise SpecError(f"{where}: expected a finite number, got {value!r}")
+        return value
+    if name not in KEYS:
+        from sparc_quad.scenario.model import did_you_mean
+
+        raise SpecError(f"{where}: unknown key{did_you_mean(name)}")
+    try:
+        return KEYS[name].check(value)
+    except ScenarioError as exc:
+        raise SpecError(f"{where}: {exc.reason}") from None
 
 
 def _list(key: str, v) -> list:
@@ -90,149 +88,100 @@ def _list(key: str, v) -> list:
     return vals
 
 
-def parse_spec(data: dict, source: str = "") -> Spec:
-    """Check a decoded TOML document; raise SpecError naming the first bad key."""
+def _seeds(v) -> tuple[int, ...]:
+    if isinstance(v, int) and not isinstance(v, bool):
+        if not 1 <= v <= SEEDS_MAX:
+            raise SpecError(f"study.seeds: a count must be in [1, {SEEDS_MAX}], got {v}")
+        return tuple(range(v))
+    seeds = _list("study.seeds", v)
+    if len(seeds) > SEEDS_MAX:
+        raise SpecError(f"study.seeds: at most {SEEDS_MAX} seeds, got {len(seeds)}")
+    return tuple(int(_value("study.seeds", "seed", s)) for s in seeds)
+
+
+def parse_spec(data: dict, source: str = "", check: bool = True) -> Spec:
+    """Check a decoded TOML document; raise SpecError naming the first bad key. `check` False skips the
+    per-trial checks (each cell's whole scenario), e.g. to size a study first."""
     if not isinstance(data, dict):
         raise SpecError("spec: expected a TOML table")
-    unknown = sorted(set(data) - {"study", "grid"})
+    unknown = sorted(set(data) - {"study", "scenario", "grid"})
     if unknown:
-        raise SpecError(f"unknown top-level table(s) {unknown}; a spec has [study] and [grid]")
-    study = data.get("study")
-    if not isinstance(study, dict):
-        raise SpecError("[study]: missing table (gait, duration, seeds, speeds, slopes)")
-    grid = data.get("grid", {})
-    if not isinstance(grid, dict):
-        raise SpecError("[grid]: expected a table")
-    bad = sorted(set(study) - set(STUDY_KEYS))
-    if bad:
-        raise SpecError(f"study.{bad[0]}: unknown key; allowed: {', '.join(STUDY_KEYS)}")
-    if "gait" not in study:
-        raise SpecError(f"study.gait: missing; one of {', '.join(GAITS)} (or a list of them)")
-    gaits = _list("study.gait", study["gait"])
-    for g in gaits:
-        if g not in GAITS:
-            raise SpecError(f"study.gait: {g!r} is not one of {', '.join(GAITS)}")
-    if "duration" not in study:
-        raise SpecError("study.duration: missing (simulated seconds per trial)")
-    duration = float(_number("study.duration", study["duration"], positive=True))
-    seeds_v = study.get("seeds", 1)
-    if isinstance(seeds_v, int) and not isinstance(seeds_v, bool):
-        if seeds_v < 1:
-            raise SpecError(f"study.seeds: a count must be >= 1, got {seeds_v}")
-        seeds = list(range(seeds_v))
-    else:
-        seeds = [_number("study.seeds", s, integer=True) for s in _list("study.seeds", seeds_v)]
-        if any(s < 0 for s in seeds):
-            raise SpecError(f"study.seeds: seeds must be >= 0, got {seeds}")
-    speeds = [float(_number("study.speeds", v)) for v in _list("study.speeds", study.get("speeds", [0.9]))]
-    slopes = [float(_number("study.slopes", v)) for v in _list("study.slopes", study.get("slopes", [0.0]))]
-    for s in slopes:
-        if abs(s) > 0.5:
-            raise SpecError(f"study.slopes: {s} rad is steeper than 0.5 rad")
+        raise SpecError(f"unknown top-level table(s) {unknown}; a spec has [study], [scenario] and [grid]")
+    study, base_in, grid_in = data.get("study", {}), data.get("scenario", {}), data.get("grid", {})
+    for name, table in (("study", study), ("scenario", base_in), ("grid", grid_in)):
+        if not isinstance(table, dict):
+            raise SpecError(f"[{name}]: expected a table")
+    for key in study:
+        if key in MOVED:
+            raise SpecError(f"study.{key}: a scenario key now: give {MOVED[key]} in [scenario] (one value) "
+                            "or [grid] (a list)")
+        if key not in STUDY_KEYS:
+            raise SpecError(f"study.{key}: unknown key; allowed: {', '.join(STUDY_KEYS)}")
     name = study.get("name", Path(source).stem if source else "study")
-    if not isinstance(name, str):
-        raise SpecError(f"study.name: expected a string, got {name!r}")
-
-    out_grid: dict[str, tuple] = {}
-    if "spine" not in grid:
-        out_grid["spine"] = ("impedance",)
-    for key, v in grid.items():
-        vals = _list(f"grid.{key}", v)
-        if key == "spine":
-            for s in vals:
-                if s not in SPINES:
-                    raise SpecError(f"grid.spine: {s!r} is not one of {', '.join(SPINES)}")
-        elif key in NUMERIC_KEYS:
-            for x in vals:
-                _number(f"grid.{key}", x, integer=key in INT_KEYS)
-                if key not in SIGNED_KEYS and x < 0:
-                    raise SpecError(f"grid.{key}: must be >= 0, got {x}")
-            if key in ("frequency", "stride") and any(x <= 0 for x in vals):
-                raise SpecError(f"grid.{key}: must be > 0, got {vals}")
-            if key == "duty" and any(not 0 < x < 1 for x in vals):
-                raise SpecError(f"grid.duty: must be in (0, 1), got {vals}")
-            # 800 and 800.0 are one trial: numbers are floats (counts stay integers) so hashes agree
-            vals = [int(x) if key in INT_KEYS else float(x) for x in vals]
-        elif key in BOOL_KEYS:
-            if any(not isinstance(x, bool) for x in vals):
-                raise SpecError(f"grid.{key}: expected true/false, got {vals}")
-        elif key in STR_KEYS:
-            if any(not isinstance(x, str) for x in vals):
-                raise SpecError(f"grid.{key}: expected strings, got {vals}")
-        elif key in ("gait", "duration", "seed", "seeds", "speed", "speeds", "slope", "slopes"):
-            raise SpecError(f"grid.{key}: set it in [study], not [grid]")
-        else:
-            allowed = ", ".join(("spine", *NUMERIC_KEYS, *BOOL_KEYS, *STR_KEYS))
-            raise SpecError(f"grid.{key}: unknown option; allowed: {allowed}")
-        out_grid[key] = tuple(vals)
-    spec = Spec(
-        name=name,
-        gaits=tuple(gaits),
-        duration_s=duration,
-        seeds=tuple(int(s) for s in seeds),
-        speeds_m_s=tuple(speeds),
-        slopes_rad=tuple(slopes),
-        grid=out_grid,
-        source=source,
-    )
-    trials = spec.trials()
-    if len(trials) > MAX_TRIALS:
-        raise SpecError(f"[grid]: {len(trials)} trials is more than {MAX_TRIALS}; split the study")
-    check = trial_checker()
-    if check is not None:
-        for cfg in trials:
+    description = study.get("description", "")
+    if not isinstance(name, str) or not isinstance(description, str):
+        raise SpecError("study.name, study.description: expected strings")
+    seeds = _seeds(study.get("seeds", 1))
+    base = {}
+    for key, v in base_in.items():
+        if key == "seed":
+            raise SpecError("scenario.seed: the seeds are [study] seeds")
+        if isinstance(v, list):
+            raise SpecError(f"scenario.{key}: one value here; a list of values goes in [grid]")
+        base[key] = _value(f"scenario.{key}", key, v)
+    grid: dict[str, tuple] = {}
+    for key, v in grid_in.items():
+        if key == "seed":
+            raise SpecError("grid.seed: the seeds are [study] seeds")
+        if key in base:
+            raise SpecError(f"grid.{key}: also set in [scenario]; give it in one place")
+        grid[key] = tuple(_value(f"grid.{key}", key, x) for x in _list(f"grid.{key}", v))
+    spec = Spec(name=name, seeds=seeds, base=base, grid=grid, description=description, source=source)
+    if spec.size() > MAX_TRIALS:
+        raise SpecError(f"[grid] x seeds: {spec.size()} trials is more than {MAX_TRIALS}; split the study")
+    if check:
+        checker = trial_checker()
+        for cfg in spec.trials():
             try:
-                check(cfg)
+                checker(cfg)
             except ValueError as exc:
                 raise SpecError(f"trial {cfg}: {exc}") from None
     return spec
 
 
 def trial_checker():
-    """The trial function's config check, if the trial module provides one."""
-    try:
-        trial = importlib.import_module("sparc_quad.study.trial")
-    except ModuleNotFoundError as exc:
-        if exc.name != "sparc_quad.study.trial":
-            raise
-        return None
-    return getattr(trial, "check_config", None)
+    """The trial function's config check."""
+    return importlib.import_module("sparc_quad.study.trial").check_config
 
 
-def load_spec(path: Path) -> Spec:
+def load_spec(path: Path, check: bool = True) -> Spec:
     """Read and check a spec file; SpecError on a missing file, bad TOML or a bad key."""
     try:
-        text = Path(path).read_text()
+        text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
         raise SpecError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not UTF-8 text") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"{path}: not valid TOML ({exc})") from None
-    return parse_spec(data, source=str(path))
+    return parse_spec(data, source=str(path), check=check)
 
 
 def expand(spec: Spec) -> list[dict]:
     keys = list(spec.grid)
     seen: set[tuple] = set()
     out: list[dict] = []
-    for gait, speed, slope in itertools.product(spec.gaits, spec.speeds_m_s, spec.slopes_rad):
-        for combo in itertools.product(*(spec.grid[k] for k in keys)):
-            cell = dict(zip(keys, combo, strict=True))
-            if cell.get("spine") in FIXED_SPINES:
-                cell = {k: v for k, v in cell.items() if k not in SPINE_GAIN_KEYS}
-            for seed in spec.seeds:
-                cfg = {
-                    "gait": gait,
-                    "duration": spec.duration_s,
-                    "speed": speed,
-                    "slope": slope,
-                    "seed": seed,
-                    **cell,
-                }
-                ident = tuple(sorted((k, repr(v)) for k, v in cfg.items()))
-                if ident in seen:
-                    continue
-                seen.add(ident)
-                out.append(cfg)
+    for combo in itertools.product(*(spec.grid[k] for k in keys)):
+        cell = {**spec.base, **dict(zip(keys, combo, strict=True))}
+        spine = cell.get("spine", KEYS["spine"].check("impedance"))
+        cell = {k: v for k, v in cell.items() if k not in KEYS or spine in KEYS[k].spines}
+        for seed in spec.seeds:
+            cfg = {**cell, "seed": seed}
+            ident = tuple(sorted((k, repr(v)) for k, v in cfg.items()))
+            if ident in seen:
+                continue
+            seen.add(ident)
+            out.append(cfg)
     return out

@@ -16,10 +16,19 @@ dicts with the same metric names where meaningful (sparc_quad.metrics.TABLE).
 
 from __future__ import annotations
 
-from sparc_quad.study.fixed_trial import GAITS, bound_config, check_config, run_fixed_trial, spine_gains
-from sparc_quad.study.raibert_opt import run_optimised_trial
+from sparc_quad.study.fixed_trial import GAITS, config_of, run_fixed_trial, scenario_of, trial_scenario
+from sparc_quad.study.fixed_trial import check_config as check_fixed
+from sparc_quad.study.raibert_opt import check_search, run_optimised_trial
 
-__all__ = ["GAITS", "bound_config", "check_config", "run_trial", "spine_gains"]
+__all__ = ["GAITS", "check_config", "config_of", "run_trial", "scenario_of", "trial_scenario"]
+
+
+def check_config(config: dict) -> None:
+    """ValueError naming the first bad key of a trial config (any gait)."""
+    if isinstance(config, dict) and config.get("gait") == "raibert-opt":
+        check_search(config)
+    else:
+        check_fixed(config)
 
 
 def run_trial(config: dict) -> dict:
@@ -27,3 +36,16 @@ def run_trial(config: dict) -> dict:
     if config.get("gait") == "raibert-opt":
         return run_optimised_trial(config)
     return run_fixed_trial(config)
+
+
+def record_scenario(config: dict, metrics: dict) -> dict | None:
+    """The resolved scenario of a finished trial, for its record (`sparc-quad bound --scenario` re-runs
+    it): the config's own for a fixed gait; for raibert-opt the reported trial's (the cell's base with the
+    tuned gait parameters, `opt_<key>` in its metrics)."""
+    if config.get("gait") == "raibert-opt":
+        from sparc_quad.study.raibert_opt import OPT_KEYS, SEARCH
+
+        base = {k: v for k, v in config.items() if k not in OPT_KEYS}
+        tuned = {k: metrics[f"opt_{k}"] for k, _, _ in SEARCH if f"opt_{k}" in metrics}
+        config = {**base, "gait": "raibert", **tuned}
+    return trial_scenario(config).to_dict()

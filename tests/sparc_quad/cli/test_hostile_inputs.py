@@ -124,7 +124,7 @@ def _cases(tmp: Path) -> list[tuple[str, list[str]]]:
         ("typo", ["bench", "static", "--kxx", "500"]),
         ("typo", ["gap", "synthh", "--out", str(tmp / "g")]),
         ("typo", ["nosuch"]),
-        ("choice", ["bound", "--spine-variant", "garbage"]),
+        ("choice", ["bound", "--spine", "garbage"]),
         ("choice", ["motors", "garbage"]),
     ]
     return cases

@@ -40,6 +40,7 @@ from sparc_quad.gaits import authors_run
 from sparc_quad.sim.bound_run import run_bound
 from sparc_quad.sim.control_clock import ControlClock
 from tests.reference import authors_bound as ref
+from tests.scenarios import authors_config
 
 MJCF = ROOT / "robots" / "spined_dog" / "spined_dog.xml"
 MAX_05 = {"x": 0.0037, "z": 0.0029, "pitch": 0.023}
@@ -47,7 +48,7 @@ RMS_2 = {"x": 0.0028, "z": 0.0016, "pitch": 0.0051}
 
 
 def _pair(step_length_m: float, k_x: float, duration_s: float, engine: str = "mujoco"):
-    cfg = replace(authors_run.bound_config(step_length_m, k_x, duration_s, engine=engine), stop_on_fall=True)
+    cfg = authors_config(step_length_m, k_x, duration_s, engine=engine)
     ours = run_bound(cfg)
     theirs = ref.run_authors_bound(ref.AuthorsBoundConfig(step_length_m=step_length_m, k_x=k_x,
                                                           duration_s=duration_s),
@@ -129,7 +130,7 @@ def test_bound_cli_runs_the_authors_run_on_their_robot():
     args = build_parser().parse_args(["bound", "--host", "spined-dog", "--engine", "mujoco", "--gait", "sine",
                                       "--step-length", "0.07", "--kx", "300", "--duration", "3"])
     cfg = config_from_args(args)
-    want = authors_run.bound_config(0.07, 300.0, 3.0, engine="mujoco")
+    want = authors_config(0.07, 300.0, 3.0, engine="mujoco")  # stop_on_fall and settle aside
     assert cfg.gait == want.gait and cfg.spine == want.spine and cfg.spine_params == want.spine_params
     assert cfg.spine_schedule == want.spine_schedule and cfg.world == want.world
     assert (cfg.spine_timing, cfg.spine_torso_accel, cfg.spine_rate_hz) == ("authors", False, 200.0)
@@ -137,7 +138,8 @@ def test_bound_cli_runs_the_authors_run_on_their_robot():
                                                         "--imu-noise", "0.01"]))
     assert noisy.world.imu.q1_noise_rad == 0.01
     solo = config_from_args(build_parser().parse_args(["bound", "--gait", "sine"]))
-    assert solo.gait.variant == "authors" and solo.spine_timing == "hold"
+    # gait A elsewhere is the literal port on the authors' gains and schedule (one default with the study)
+    assert solo.gait.variant == "literal" and solo.spine_timing == "hold" and solo.spine.k[0] == 800.0
     # the base's motion: what their code feeds their law on their run, the paper's fixed origin elsewhere
     assert cfg.world.base_motion == "authors-cvel" and solo.world.base_motion == "fixed"
     fixed = config_from_args(build_parser().parse_args(["bound", "--host", "spined-dog", "--gait", "sine",
@@ -157,7 +159,7 @@ def test_the_spine_node_receives_the_schedule_as_commands():
     from sparc_quad.robot_side.quad import NodeSpine
     from sparc_quad.sim.quadruped_world import EstimatorOutput
 
-    cfg = authors_run.bound_config(0.07, 300.0, 5.0)
+    cfg = authors_config(0.07, 300.0, 5.0)
     sch = cfg.spine_schedule
     sp = NodeSpine.inprocess(cfg.spine, False, node_config=authors_run.node_config(), schedule=sch,
                              spine=cfg.spine_params, torso_accel=False)
@@ -184,7 +186,7 @@ def test_the_node_path_runs_the_authors_bound():
     L 0.08 m, k_x 800, direct 0.888, reference 0.881)."""
     from sparc_quad.robot_side.quad import NodeSpine
 
-    cfg = replace(authors_run.bound_config(0.07, 300.0, 20.0), stop_on_fall=True)
+    cfg = replace(authors_config(0.07, 300.0, 20.0), stop_on_fall=True)
     sp = NodeSpine.inprocess(cfg.spine, False, node_config=authors_run.node_config(),
                              schedule=cfg.spine_schedule, spine=cfg.spine_params, torso_accel=False)
     r = run_bound(cfg, spine=sp)

@@ -154,10 +154,10 @@ def test_bad_variant_is_named():
 @pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
 def test_world_starts_where_the_gait_says(engine):
     """The authors' start through `world.set_start` in either engine: spine, legs and base height."""
-    from sparc_quad.gaits import authors_run
     from sparc_quad.sim.quadruped_world import make_world
+    from tests.scenarios import authors_config
 
-    cfg = authors_run.bound_config(0.1, 800.0, 1.0, engine=engine)
+    cfg = authors_config(0.1, 800.0, 1.0, engine=engine)
     w = make_world(cfg.world)
     try:
         ctrl = SineBoundController(w, cfg.gait)

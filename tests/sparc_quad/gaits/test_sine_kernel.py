@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from sparc_quad.gaits import sine_kernel
-from sparc_quad.gaits.authors_run import bound_config as authors_config
 from sparc_quad.sim.bound_run import direct_spine, make_gait, run_bound
 from sparc_quad.sim.quadruped_world import make_world
+from tests.scenarios import authors_config
 
 pytest.importorskip("numba")
 LEGS = ("HL", "HR", "FL", "FR")

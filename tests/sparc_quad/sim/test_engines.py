@@ -126,17 +126,17 @@ def test_run_bound_has_the_same_outputs_on_both_engines(tmp_path):
 
 def test_study_trial_runs_on_the_mujoco_engine():
     """A study config names its engine and host like any other key; a wrong one is named."""
-    from sparc_quad.study.fixed_trial import bound_config
     from sparc_quad.study.trial import run_trial
+    from tests.scenarios import trial_config as bound_config
 
     config = {"gait": "sine", "host": "spined-dog", "engine": "mujoco", "duration": 0.5, "step_length": 0.08,
               "variant": "authors"}
     assert bound_config(config).world.engine == "mujoco"
     out = run_trial(config)
     assert out["fell"] in (True, False)
-    with pytest.raises(ValueError, match="config 'engine' must be one of pybullet, mujoco"):
+    with pytest.raises(ValueError, match="engine: must be one of pybullet, mujoco"):
         bound_config({**config, "engine": "ode"})
-    with pytest.raises(ValueError, match="config 'host' must be one of"):
+    with pytest.raises(ValueError, match="host: must be one of"):
         bound_config({**config, "host": "spot"})
 
 

@@ -9,11 +9,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sparc_quad.gaits import authors_run
 from sparc_quad.sim.bound_log import COLUMNS
 from sparc_quad.sim.bound_run import fill_held_rows, run_bound
 from sparc_quad.sim.quadruped_world import HELD_STATE, make_world
-from sparc_quad.study.fixed_trial import bound_config
+from tests.scenarios import authors_config
+from tests.scenarios import trial_config as bound_config
 
 pytest.importorskip("mujoco")
 
@@ -55,7 +55,7 @@ def test_held_steps_bit_identical_through_a_fall(base_motion):
     """The authors' run at L = 0.12 m falls; stop_on_fall ends both runs at the same step. Every base
     motion: the constant-twist estimate needs each held state's twist, the authors' each held step's cvel
     (`step_chunk`'s)."""
-    cfg = authors_run.bound_config(step_length_m=0.12, k_x_n_m=800.0, duration_s=5.0, base_motion=base_motion)
+    cfg = authors_config(step_length_m=0.12, k_x_n_m=800.0, duration_s=5.0, base_motion=base_motion)
     held, full = _both(cfg)
     assert held.metrics["fell"]
     _assert_same(held, full)
@@ -65,8 +65,8 @@ def test_held_steps_bit_identical_through_a_fall(base_motion):
 def test_held_steps_bit_identical_with_the_base_acceleration_at_l_0_08(base_motion):
     """L = 0.08 m, k_x 800 for 6 s (through the switch and the frequency adaptation), the authors' cvel (the
     run's default) and the true twist."""
-    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=6.0, base_motion=base_motion)
-    assert authors_run.bound_config().world.base_motion == "authors-cvel"
+    cfg = authors_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=6.0, base_motion=base_motion)
+    assert authors_config().world.base_motion == "authors-cvel"  # the scenario's default there
     held, full = _both(cfg)
     assert not held.metrics["fell"]
     _assert_same(held, full)
@@ -109,7 +109,7 @@ def test_mujoco_chunk_keeps_what_read_gives(base_motion):
     """MuJoCo's chunk (steps back to back, raw states converted after) gives, state by state, what `step` +
     `read` give (the twist too: the authors' cvel or the body twist); `rewind` takes it back to a state
     exactly."""
-    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0, base_motion=base_motion)
+    cfg = authors_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=1.0, base_motion=base_motion)
     a, b, c = make_world(cfg.world), make_world(cfg.world), make_world(cfg.world)
     assert b.can_rewind and b.estimator.needs_twist
     assert b.estimator.uses_authors_twist == (base_motion == "authors-cvel")
@@ -129,7 +129,7 @@ def test_mujoco_chunk_keeps_what_read_gives(base_motion):
 def test_a_world_that_cannot_rewind_is_stepped_in_full():
     """pybullet cannot take back part of a chunk: the bound steps every step through the full path."""
     pytest.importorskip("pybullet")
-    cfg = authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=0.3, engine="pybullet")
+    cfg = authors_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=0.3, engine="pybullet")
     with make_world(cfg.world) as w:
         assert not w.can_rewind
     assert run_bound(cfg).metrics["held_steps"] == 0
@@ -169,7 +169,7 @@ def test_a_spine_computed_every_step_runs_every_step_in_full():
     """A spine drive without a control clock (its torque may move every step) gets no chunks."""
     from dataclasses import replace
 
-    cfg = replace(authors_run.bound_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=0.5),
+    cfg = replace(authors_config(step_length_m=0.08, k_x_n_m=800.0, duration_s=0.5),
                   spine_rate_hz=None, spine_timing="hold")
     held, full = _both(cfg)
     _assert_same(held, full, chunks=False)

@@ -106,7 +106,7 @@ def test_cli_lcm_without_a_node_says_what_to_start(tmp_path, capsys):
     argv = ["bound", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.2", "--out", str(tmp_path)]
     assert main(argv) == 2
     assert "spine-node --motors lcm" in capsys.readouterr().err
-    assert main(["bound", "--lcm", "--rigid-spine", "--out", str(tmp_path)]) == 2
+    assert main(["bound", "--lcm", "--spine", "rigid", "--out", str(tmp_path)]) == 2
 
 
 def test_node_in_process_bounds_and_runs_on_the_estimate():

@@ -6,7 +6,8 @@ import pytest
 
 from sparc_quad.sim.seed_variation import FRICTION, MASS_SCALE, Perturbation, perturbation
 from sparc_quad.study.spec import SpecError, parse_spec
-from sparc_quad.study.trial import bound_config
+from tests.scenarios import authors_config
+from tests.scenarios import trial_config as bound_config
 
 
 def test_seed_perturbations_are_small_and_carry_no_latency():
@@ -25,11 +26,11 @@ def test_latency_is_a_factor_default_zero():
     assert bound_config({"gait": "raibert", "seed": 3, "latency_steps": 2}).actuator_latency_steps == 2
     with pytest.raises(ValueError, match="latency_steps"):
         bound_config({"gait": "raibert", "latency_steps": -1})
-    spec = parse_spec({"study": {"gait": "raibert", "duration": 1.0, "seeds": 2},
+    spec = parse_spec({"study": {"seeds": 2}, "scenario": {"gait": "raibert", "duration": 1.0},
                        "grid": {"spine": ["rigid"], "latency_steps": [0, 2]}})
     assert sorted({c["latency_steps"] for c in spec.trials()}) == [0, 2]
     with pytest.raises(SpecError, match="latency_steps"):
-        parse_spec({"study": {"gait": "raibert", "duration": 1.0}, "grid": {"latency_steps": [1.5]}})
+        parse_spec({"scenario": {"gait": "raibert", "duration": 1.0}, "grid": {"latency_steps": [1.5]}})
 
 
 def test_authors_gait_on_the_spined_dog_is_their_run_with_the_seed_on_top():
@@ -38,7 +39,7 @@ def test_authors_gait_on_the_spined_dog_is_their_run_with_the_seed_on_top():
     cfg = {"gait": "sine", "variant": "authors", "host": "spined-dog", "engine": "mujoco", "seed": 4,
            "step_length": 0.07, "kx": 500.0, "dx": 12.0, "duration": 6.0}
     bc = bound_config(cfg)
-    ref = A.bound_config(step_length_m=0.07, k_x_n_m=500.0, duration_s=6.0)
+    ref = authors_config(step_length_m=0.07, k_x_n_m=500.0, duration_s=6.0)
     assert bc.spine_timing == ref.spine_timing == "authors" and bc.spine_params == ref.spine_params
     assert bc.world.imu == A.EXACT_IMU and bc.spine.k[0] == 500.0 and bc.spine.d[0] == 12.0
     p = perturbation(4)

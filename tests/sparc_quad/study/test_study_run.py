@@ -18,7 +18,8 @@ from sparc_quad.study.spec import parse_spec
 from tests.paths import ROOT
 
 TINY = {
-    "study": {"gait": "raibert", "duration": 0.6, "seeds": [0], "speeds": [0.9]},
+    "study": {"seeds": [0]},
+    "scenario": {"gait": "raibert", "duration": 0.6, "speed": 0.9},
     "grid": {"spine": ["impedance", "rigid"], "kx": [300, 1200]},
 }
 
@@ -150,7 +151,7 @@ def test_cli_run_and_report(local_study, tmp_path):
     src, _ = local_study
     spec = tmp_path / "tiny.toml"
     spec.write_text(
-        '[study]\ngait = "raibert"\nduration = 0.6\nseeds = [0]\nspeeds = [0.9]\n'
+        '[study]\nseeds = [0]\n[scenario]\ngait = "raibert"\nduration = 0.6\nspeed = 0.9\n'
         '[grid]\nspine = ["impedance", "rigid"]\nkx = [300, 1200]\n'
     )
     out = tmp_path / "out"

@@ -14,7 +14,8 @@ from tests.paths import ROOT
 
 def spec(**over):
     data = {
-        "study": {"gait": "raibert", "duration": 1.0, "seeds": 2, "speeds": [0.9]},
+        "study": {"seeds": 2},
+        "scenario": {"gait": "raibert", "duration": 1.0, "speed": 0.9},
         "grid": {"spine": ["impedance", "rigid"], "kx": [300, 800], "dx": [2, 8]},
     }
     for k, v in over.items():
@@ -35,7 +36,8 @@ def test_expansion_counts_and_rigid_collapses():
     assert len(rigid) == 2  # seeds only: rigid does not vary k, d
     assert all("kx" not in t and "dx" not in t for t in rigid)
     assert {t["seed"] for t in trials} == {0, 1}
-    assert all(t["gait"] == "raibert" and t["duration"] == 1.0 and t["slope"] == 0.0 for t in trials)
+    assert all(t["gait"] == "raibert" and t["duration"] == 1.0 and t["speed"] == 0.9 for t in trials)
+    assert s.size() == 16  # before the rigid cells collapse
 
 
 def test_numbers_are_normalised_so_int_and_float_agree():
@@ -45,7 +47,8 @@ def test_numbers_are_normalised_so_int_and_float_agree():
 
 
 def test_gait_list_and_seed_list():
-    s = parse_spec(spec(study__gait=["sine", "raibert"], study__seeds=[3, 7]))
+    s = parse_spec(spec(scenario__gait=None, scenario__speed=None, grid__gait=["sine", "raibert"],
+                        study__seeds=[3, 7]))
     trials = s.trials()
     assert {t["gait"] for t in trials} == {"sine", "raibert"}
     assert {t["seed"] for t in trials} == {3, 7}
@@ -54,23 +57,29 @@ def test_gait_list_and_seed_list():
 @pytest.mark.parametrize(
     ("over", "names"),
     [
-        ({"study__gait": "trot"}, "study.gait"),
-        ({"study__gait": None}, "study.gait"),
-        ({"study__duration": -1}, "study.duration"),
-        ({"study__duration": "10"}, "study.duration"),
+        ({"scenario__gait": "trot"}, "scenario.gait"),
+        ({"scenario__duration": -1}, "scenario.duration"),
+        ({"scenario__duration": "10"}, "scenario.duration"),
+        ({"scenario__duration": 601}, "scenario.duration"),
+        ({"scenario__duration": [1, 2]}, "scenario.duration"),
         ({"study__seeds": 0}, "study.seeds"),
+        ({"study__seeds": 10**9}, "study.seeds"),
         ({"study__seeds": [1, 1]}, "study.seeds"),
-        ({"study__speeds": []}, "study.speeds"),
-        ({"study__slopes": [2.0]}, "study.slopes"),
+        ({"study__speeds": [0.9]}, "study.speeds"),
+        ({"grid__slope": [2.0]}, "grid.slope"),
         ({"study__colour": 1}, "study.colour"),
         ({"grid__spine": ["bendy"]}, "grid.spine"),
         ({"grid__kx": [300, "soft"]}, "grid.kx"),
         ({"grid__kx": [-5]}, "grid.kx"),
+        ({"grid__kx": [1e12]}, "grid.kx"),
         ({"grid__dx": [float("nan")]}, "grid.dx"),
         ({"grid__duty": [1.5]}, "grid.duty"),
         ({"grid__frequency": [0]}, "grid.frequency"),
         ({"grid__wobble": [1]}, "grid.wobble"),
-        ({"grid__speed": [1]}, "grid.speed"),
+        ({"grid__speed": [1]}, "grid.speed"),  # also in [scenario]: one place
+        ({"scenario__speed": None, "scenario__gait": "sine", "grid__speed": [1.0]}, "speed"),  # not in gait A
+        ({"grid__kx": list(range(1, 101)), "grid__dx": list(range(1, 101)), "grid__kz": list(range(1, 21))},
+         "more than"),
     ],
 )
 def test_bad_keys_are_named(over, names):
@@ -88,8 +97,8 @@ def test_load_spec_errors(tmp_path):
 
 
 def test_shipped_specs_parse():
-    for name in ("smoke", "claims"):
-        s = load_spec(ROOT / "studies" / f"{name}.toml")
+    for path in sorted((ROOT / "studies").rglob("*.toml")):
+        s = load_spec(path, check=path.name != "full.toml")  # full.toml: 7680 cells, sized only
         assert s.trials()
 
 
@@ -119,7 +128,7 @@ def test_code_version_tracks_trial_sources_only(tmp_path):
 
 def test_cli_bad_spec_exits_2(tmp_path):
     bad = tmp_path / "s.toml"
-    bad.write_text('[study]\ngait = "sine"\nduration = 1\n[grid]\nkx = ["x"]\n')
+    bad.write_text('[scenario]\ngait = "sine"\nduration = 1\n[grid]\nkx = ["x"]\n')
     r = subprocess.run(
         [sys.executable, "-m", "sparc_quad", "study", "run", str(bad), "--out", str(tmp_path / "o")],
         capture_output=True,

@@ -171,12 +171,12 @@ def test_cli_bound_spine_variant_and_attitude_gain(tmp_path, capsys):
     from sparc_quad.cli import main
 
     out = tmp_path / "passive"
-    assert main(["bound", "--spine-variant", "passive", "--body-kp", "0", "--duration", "1.0",
+    assert main(["bound", "--spine", "passive", "--body-kp", "0", "--duration", "1.0",
                  "--out", str(out)]) == 0
     m = json.loads((out / "metrics.json").read_text())
     assert m["spine_variant"] == "passive" and m["spine_actuated"] is False
     assert m["config"]["gait"]["body_kp"] == 0.0
-    assert main(["bound", "--spine-variant", "passive", "--spine", "node", "--out", str(tmp_path / "n")]) == 2
+    assert main(["bound", "--spine", "passive", "--spine-path", "node", "--out", str(tmp_path / "n")]) == 2
     with pytest.raises(SystemExit) as exc:
         main(["bound", "--body-kp", "-1", "--out", str(tmp_path / "bad")])
     assert exc.value.code == 2 and "body-kp" in capsys.readouterr().err

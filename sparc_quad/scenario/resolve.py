@@ -1,0 +1,108 @@
+"""A scenario's defaults filled in, and the simulator's `BoundConfig` it runs: the one translator.
+
+`resolved(s)` fills every None key that acts in `s` with its robot's and gait's default, so the result says
+exactly what runs (it is what `scenario.json` holds). `bound_config(s)` maps a scenario to the
+simulator's configuration, with the seed's perturbation applied; the CLI, a study trial and Python all
+call it, so a one-cell study and `sparc-quad bound` with the same keys run the same bound by construction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+from sparc_quad.gaits import authors_run as A
+from sparc_quad.gaits.bound import BoundParams
+from sparc_quad.gaits.sine_bound import SineBoundParams
+from sparc_quad.scenario.model import KEYS, Scenario
+from sparc_quad.sim import spined_dog
+from sparc_quad.sim.bound_run import BoundConfig
+from sparc_quad.sim.imu import ImuConfig
+from sparc_quad.sim.quadruped_world import WorldConfig
+from sparc_quad.sim.seed_variation import perturbation
+from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
+from spine_module import params as P
+
+DOG_STEP_LENGTH_M = 0.08  # the authors' run that bounds (0.88 m/s in MuJoCo); their released 0.12 falls
+_RAIBERT, _SINE = BoundParams(), SineBoundParams()
+
+
+def authors_run(s: Scenario) -> bool:
+    """Gait A on the authors' own robot: their whole run (start, clock, schedule, model, estimator)."""
+    return s.gait == "sine" and s.host == spined_dog.HOST
+
+
+def defaults(s: Scenario) -> dict[str, Any]:
+    """The default of every nullable key in `s`'s robot, gait and spine (keys that act only there)."""
+    authors = authors_run(s)
+    if s.gait == "raibert":
+        k, d = tuple(P.K_DEFAULT), tuple(P.D_DEFAULT)
+        gait = dict(speed=_RAIBERT.speed_m_s if s.stride is None else None, frequency=_RAIBERT.frequency_hz,
+                    step_height=_RAIBERT.step_height_m, body_kp=_RAIBERT.body_kp, body_kd=_RAIBERT.body_kd,
+                    phase_offset=_RAIBERT.phase_offset, raibert_gain=_RAIBERT.raibert_gain_s)
+        spine_rate = None  # every physics step
+    else:
+        variant = s.variant or ("authors" if authors else "literal")
+        run = A.gains(P.AUTHORS_SPINE_K[0])
+        k, d = run.k, run.d
+        gait = dict(variant=variant, frequency=_SINE.frequency_hz, step_height=_SINE.step_height_m,
+                    step_length=DOG_STEP_LENGTH_M if s.host == spined_dog.HOST else _SINE.step_length_m,
+                    hip_depth=_SINE.hip_depth_m, adapt_frequency=authors and variant == "authors",
+                    direction=1.0 if variant == "literal" else None, schedule=True)
+        spine_rate = A.AUTHORS_CONTROL_HZ if authors else P.AUTHORS_SPINE_RATE_HZ
+    imu = A.EXACT_IMU if authors else ImuConfig()
+    out = dict(gait, kx=k[0], kz=k[1], kth=k[2], dx=d[0], dz=d[1], dth=d[2], spine_rate_hz=spine_rate,
+               imu_noise=imu.q1_noise_rad, imu_delay=imu.delay_steps,
+               base_motion=A.BASE_MOTION if authors else "fixed")
+    return {name: value for name, value in out.items()
+            if s.gait in KEYS[name].gaits and s.spine in KEYS[name].spines}
+
+
+def resolved(s: Scenario) -> Scenario:
+    """`s` with every None key that acts in it set to its default: the run as it will be simulated."""
+    fill = {name: value for name, value in defaults(s).items() if getattr(s, name) is None}
+    return replace(s, **fill) if fill else s
+
+
+def bound_config(s: Scenario) -> BoundConfig:
+    """The simulator's configuration of scenario `s` (defaults filled, the seed's perturbation applied)."""
+    r = resolved(s)
+    pert = perturbation(r.seed)
+    authors = authors_run(r)
+    base_imu = A.EXACT_IMU if authors else ImuConfig()
+    imu = replace(base_imu, q1_noise_rad=r.imu_noise, q1_bias_rad=r.imu_bias, delay_steps=r.imu_delay)
+    world = WorldConfig(host=r.host, engine=r.engine, slope_rad=r.slope, seed=r.seed, imu=imu,
+                        base_motion=r.base_motion, friction=WorldConfig.friction * pert.friction,
+                        mass_scale=pert.mass_scale, init_pitch_rad=pert.init_pitch_rad,
+                        init_vx_m_s=pert.init_vx_m_s)
+    rendered = r.kx is not None
+    spine = SpineGains(k=(r.kx, r.kz, r.kth), d=(r.dx, r.dz, r.dth)) if rendered else SpineGains()
+    common: dict[str, Any] = dict(
+        duration_s=r.duration, world=world, spine=spine, spine_variant=r.spine,
+        friction_compensation=r.friction_comp, stop_on_fall=False, actuator_latency_steps=r.latency_steps,
+        settle_s=r.settle, spine_rate_hz=r.spine_rate_hz)
+    if r.gait == "raibert":
+        params = replace(_RAIBERT, frequency_hz=r.frequency, step_height_m=r.step_height, duty=r.duty,
+                         body_kp=r.body_kp, body_kd=r.body_kd, phase_offset=r.phase_offset,
+                         raibert_gain_s=r.raibert_gain, start_s=_RAIBERT.start_s + pert.start_phase_cycles /
+                         r.frequency)
+        params = params.with_stride(r.stride) if r.stride is not None else replace(params, speed_m_s=r.speed)
+        return BoundConfig(gait=params, **common)
+    variant_authors = r.variant == "authors"
+    sine = dict(frequency_hz=r.frequency, step_length_m=r.step_length, step_height_m=r.step_height,
+                hip_depth_m=r.hip_depth, variant=r.variant, adapt_frequency=r.adapt_frequency,
+                start_phase_rad=2 * math.pi * pert.start_phase_cycles)
+    if r.direction is not None:
+        sine["direction"] = r.direction
+    world = replace(world, stand_height_m=r.hip_depth)
+    if authors:  # their start pose and height, their schedule's frame, the dog's spine model
+        sine.update(start_spine_q_rad=A.START_SPINE_Q_RAD, start_base_height_m=spined_dog.BASE_HEIGHT_M)
+        schedule = A.schedule() if r.schedule else None
+        common.update(spine_params=A.spine_params(), spine_torso_accel=False)
+    else:
+        schedule = SpineSchedule() if r.schedule else None
+    params = SineBoundParams(**sine)
+    params.validate()
+    return BoundConfig(gait=params, spine_schedule=schedule,
+                       spine_timing="authors" if variant_authors else "hold", **{**common, "world": world})
