@@ -1,5 +1,6 @@
-"""Gait A as the SPARC authors run it on their spined dog: the spine side of their run, and the
-`BoundConfig` that reproduces the whole run through the project's pipeline.
+"""Gait A as the SPARC authors run it on their spined dog: the spine side of their run (their gains,
+schedule, clock, spine model, start pose and estimator). `sparc_quad.scenario` makes their whole run the
+default of `gait = "sine"` on `host = "spined-dog"` from these.
 
 Source: github.com/YueWang996/sparc, commit d9639f5, `mujoco_simulation/main_robot.py` (the schedule) and
 `spine_impedance_controller.py` (the law's model: `asset/spined_dog_spine_dyn.urdf`, the hind body, three
@@ -18,7 +19,6 @@ from __future__ import annotations
 
 import math
 
-from sparc_quad.gaits.sine_bound import SineBoundParams
 from sparc_quad.sim.imu import ImuConfig
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
 from spine_module import params as P
@@ -78,27 +78,6 @@ def schedule() -> SpineSchedule:
 def gains(k_x_n_m: float) -> SpineGains:
     """The run's gains (after the switch): Kp (k_x, 2000, 15), Kd (8, 5, 0.5)."""
     return SpineGains(k=(k_x_n_m, AUTHORS_K_Z_N_M, AUTHORS_K_THETA_NM_RAD), d=tuple(P.AUTHORS_SPINE_D_RUN))
-
-
-def bound_config(step_length_m: float = 0.12, k_x_n_m: float = 800.0, duration_s: float = 20.0,
-                 engine: str = "mujoco", adapt_frequency: bool = True, base_motion: str = BASE_MOTION,
-                 **gait):
-    """Their run through `run_bound`: the spined dog, gait A (authors variant), their spine schedule on
-    their clock with the spine-only model, a noise-free estimator one step late that gives the base's
-    acceleration as their code feeds their law (`base_motion`, default "authors-cvel": a = w x v of the hind
-    body's `cvel` read as its body twist), their fall test left to `run_bound` (pitch or roll beyond its
-    limits)."""
-    from sparc_quad.sim import spined_dog as D
-    from sparc_quad.sim.bound_run import BoundConfig
-    from sparc_quad.sim.quadruped_world import WorldConfig
-
-    params = SineBoundParams(step_length_m=step_length_m, adapt_frequency=adapt_frequency, variant="authors",
-                             start_spine_q_rad=START_SPINE_Q_RAD, start_base_height_m=D.BASE_HEIGHT_M, **gait)
-    world = WorldConfig(host="spined-dog", engine=engine, imu=EXACT_IMU, stand_height_m=params.hip_depth_m,
-                        base_motion=base_motion)
-    return BoundConfig(duration_s=duration_s, gait=params, world=world, spine=gains(k_x_n_m),
-                       spine_schedule=schedule(), spine_rate_hz=AUTHORS_CONTROL_HZ, spine_timing="authors",
-                       spine_params=spine_params(), spine_torso_accel=False, settle_s=0.0)
 
 
 def node_config():
