@@ -36,12 +36,13 @@ from sparc_quad.gap.errors import TrialError
 from sparc_quad.gap.lcm_scan import open_checked
 from sparc_quad.gap.sidecar import load_sidecar, sidecar_path
 from sparc_quad.gap.trialdata import Trial, robot_for
+from sparc_quad.robots import spine_urdf_path
 from spine_module import params as P
 
 log_ = logging.getLogger(__name__)
 NODE_JOINTS = P.ALL_JOINTS  # order of spine_state_t.q / dq: q1..q4
 NODE_ACTUATED = P.ACTUATED_JOINTS  # order of tau_cmd / tau_est: q2..q4
-SPINE_URDF = Path(__file__).resolve().parents[2] / "robots" / "sparc_spine" / "sparc_spine.urdf"
+SPINE_URDF = spine_urdf_path()
 
 
 def default_meta(path: Path, rate_hz: float) -> dict:

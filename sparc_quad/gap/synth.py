@@ -27,10 +27,11 @@ from sparc_quad.effects import Effect, kind
 from sparc_quad.effects.plant import PlantEffects
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.trial import Trial, save_trial
+from sparc_quad.robots import spine_urdf_path
 from spine_module import params as P
 from spine_module.messages.motor import MotorCommand
 
-SPINE_URDF = Path(__file__).resolve().parents[2] / "robots" / "sparc_spine" / "sparc_spine.urdf"
+SPINE_URDF = spine_urdf_path()
 
 _LISTS = ("xyz_m", "direction")  # list-valued parameters, written u1;u2;...
 
