@@ -99,8 +99,10 @@ def test_fresh_venv_robot_side_install(tmp_path):
 def test_gap_synth_runs_on_the_robot_side_install(tmp_path):
     """`gap synth` needs only the robot-side install (pinocchio and numpy): with every simulator, plotting and
     statistics module blocked it still writes its trials."""
+    argv = ["gap", "synth", "--trials-n", "1", "--periods", "1", "--out", str(tmp_path / "g")]
     code = (f"import sys\nfor m in {HEAVY!r}: sys.modules[m] = None\nfrom sparc_quad.cli import main\n"
-            f"sys.exit(main(['gap', 'synth', '--trials-n', '1', '--periods', '1', '--out', {str(tmp_path / 'g')!r}]))")
-    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+            f"sys.exit(main({argv!r}))")
+    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=300)
     assert res.returncode == 0, res.stderr[-2000:]
     assert list((tmp_path / "g").glob("*.csv"))

@@ -136,6 +136,12 @@ def parse_spec(data: dict, source: str = "", check: bool = True) -> Spec:
         if key in base:
             raise SpecError(f"grid.{key}: also set in [scenario]; give it in one place")
         grid[key] = tuple(_value(f"grid.{key}", key, x) for x in _list(f"grid.{key}", v))
+    spines = grid.get("spine", (base.get("spine", "impedance"),))
+    for key in (*base, *grid):
+        if key in KEYS and key != "spine" and not set(spines) & set(KEYS[key].spines):
+            where = "grid" if key in grid else "scenario"
+            raise SpecError(f"{where}.{key}: acts only with spine {' or '.join(KEYS[key].spines)}, and no "
+                            f"cell has one (spine {', '.join(spines)})")
     spec = Spec(name=name, seeds=seeds, base=base, grid=grid, description=description, source=source)
     if spec.size() > MAX_TRIALS:
         raise SpecError(f"[grid] x seeds: {spec.size()} trials is more than {MAX_TRIALS}; split the study")

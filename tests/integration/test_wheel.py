@@ -22,8 +22,8 @@ def installed(tmp_path_factory) -> Path:
     base = tmp_path_factory.mktemp("wheel")
     wheels = base / "dist"
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(wheels), str(ROOT)],
-                   check=True, timeout=600, env=env, cwd=base)
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(wheels),
+                    str(ROOT)], check=True, timeout=600, env=env, cwd=base)
     (wheel,) = wheels.glob("sparc_quad-*.whl")
     target = base / "venv"
     venv.EnvBuilder(with_pip=True).create(target)
@@ -35,8 +35,8 @@ def installed(tmp_path_factory) -> Path:
 
 def _run(venv_dir: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
-    return subprocess.run([str(venv_dir / "bin" / "sparc-quad"), *args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=600)
+    return subprocess.run([str(venv_dir / "bin" / "sparc-quad"), *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=600)
 
 
 def test_the_installed_wheel_bounds_outside_the_repository(installed, tmp_path):
@@ -45,8 +45,8 @@ def test_the_installed_wheel_bounds_outside_the_repository(installed, tmp_path):
     doc = json.loads((tmp_path / "b" / "scenario.json").read_text())
     assert doc["scenario"]["host"] == "solo12"
     loc = subprocess.run([str(installed / "bin" / "python"), "-c",
-                          "import sparc_quad.robots as r; print(r.ROBOTS_DIR)"], capture_output=True, text=True,
-                         cwd=tmp_path, check=True).stdout.strip()
+                          "import sparc_quad.robots as r; print(r.ROBOTS_DIR)"], capture_output=True,
+                         text=True, cwd=tmp_path, check=True).stdout.strip()
     assert str(installed) in loc and not loc.startswith(str(ROOT))  # the wheel's robots, not the checkout's
 
 

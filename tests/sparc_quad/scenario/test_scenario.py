@@ -43,7 +43,7 @@ def another_value(name: str, base: Scenario):
     hi = key.hi if key.hi is not None else lo + 2.0
     for frac in (0.37, 0.61, 0.13):
         value = lo + frac * (hi - lo)
-        value = int(round(value)) if key.kind is int else round(value, 6)
+        value = round(value) if key.kind is int else round(value, 6)
         if value != now and KEYS[name].check(value) == value:
             return value
     raise AssertionError(name)
@@ -59,8 +59,8 @@ def cli_flag(name: str, value) -> str:
 
 def test_every_bound_option_is_a_scenario_key_or_an_execution_option():
     parser = build_parser()
-    bound = parser._subparsers._group_actions[0].choices["bound"]  # noqa: SLF001
-    dests = {a.dest for a in bound._actions}  # noqa: SLF001
+    bound = parser._subparsers._group_actions[0].choices["bound"]
+    dests = {a.dest for a in bound._actions}
     assert dests - EXECUTION == set(KEYS)
     assert sorted(n for names in GROUPS.values() for n in names) == sorted(KEYS)
 
@@ -141,6 +141,9 @@ def test_every_study_key_reaches_the_trial_or_is_refused(name):
     if gait is not None:  # another gait: refused, naming the key
         with pytest.raises(SpecError, match=name):
             parse_spec({"scenario": {**base, "gait": gait}, "grid": {name: [value]}})
+    if spine is not None:  # a spine it cannot act on in any cell: refused, naming the key
+        with pytest.raises(SpecError, match=name):
+            parse_spec({"scenario": {**base, "spine": spine}, "grid": {name: [value]}})
 
 
 def test_files_round_trip(tmp_path):
@@ -158,8 +161,8 @@ def test_files_round_trip(tmp_path):
 
 def test_bad_files_name_the_key(tmp_path):
     p = tmp_path / "s.toml"
-    for text, key in (('kxx = 3\n', "kxx"), ('kx = "soft"\n', "kx"), ('gait = "sine"\nspeed = 1.0\n', "speed"),
-                      ('spine = "rigid"\nkx = 800\n', "kx")):
+    for text, key in (('kxx = 3\n', "kxx"), ('kx = "soft"\n', "kx"),
+                      ('gait = "sine"\nspeed = 1.0\n', "speed"), ('spine = "rigid"\nkx = 800\n', "kx")):
         p.write_text(text)
         with pytest.raises(ScenarioError) as exc:
             load_scenario(p)
