@@ -51,3 +51,36 @@ COLUMNS = (
 # the columns computed from the logged torques and rates after the loop (metrics.table.derived_columns);
 # the loops write 0 there
 DERIVED = ("leg_power_w", "spine_power_w", "leg_tau_max")
+
+
+def _unit(column: str) -> str:
+    if column == "t":
+        return "s"
+    if column in ("x", "y", "z", "spine_x", "spine_z"):
+        return "m"
+    if column.startswith(("dq", "dq1")) and not column.startswith("ddq"):
+        return "rad/s"
+    if column.startswith("ddq"):
+        return "rad/s^2"
+    if column.startswith(("q", "pitch", "roll", "yaw", "spine_theta")):
+        return "rad"
+    if column.startswith(("tau", "leg_tau")):
+        return "N*m"
+    if column.endswith("_w"):
+        return "W"
+    if column.endswith("_j"):
+        return "J"
+    if column.endswith("_hz"):
+        return "Hz"
+    if column == "gait_phase":
+        return "cycles"
+    return "1"  # contact and stance flags
+
+
+UNITS = {c: _unit(c) for c in COLUMNS}  # SI unit of each column ("1": a flag or count)
+HEADER = ",".join(f"{c} [{UNITS[c]}]" for c in COLUMNS)  # timeseries.csv's header: name [unit]
+
+
+def column_name(header_field: str) -> str:
+    """The column name of one field of timeseries.csv's header ("q2 [rad]" -> "q2")."""
+    return header_field.split(" [", 1)[0].strip()

@@ -21,7 +21,7 @@ from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
 from sparc_quad.jsonfmt import json_text
 from sparc_quad.metrics import table as metrics_table
-from sparc_quad.sim.bound_log import COLUMNS, DERIVED, LEGS
+from sparc_quad.sim.bound_log import COLUMNS, DERIVED, HEADER, LEGS
 from sparc_quad.sim.fall import FALL_REASONS, fall_code
 from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import HELD_STATE, QuadWorld, WorldConfig, make_world
@@ -432,7 +432,7 @@ def write_outputs(result: BoundResult, out: Path, plots: bool = True) -> list[Pa
     p.write_text(json_text(metrics, indent=2) + "\n")  # undefined metrics (NaN) as null
     paths.append(p)
     p = out / "timeseries.csv"
-    np.savetxt(p, result.series, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.9g")
+    np.savetxt(p, result.series, delimiter=",", header=HEADER, comments="", fmt="%.9g")
     paths.append(p)
     if result.node_states:
         p = out / "node_states.npz"

@@ -62,7 +62,9 @@ def inprocess_run():
 
 
 def _series(path: Path) -> tuple[list[str], np.ndarray]:
-    header = path.read_text().split("\n", 1)[0].split(",")
+    from sparc_quad.sim.bound_log import column_name
+
+    header = [column_name(f) for f in path.read_text().split("\n", 1)[0].split(",")]
     return header, np.loadtxt(path, delimiter=",", skiprows=1)
 
 
