@@ -28,7 +28,8 @@ def test_a_bound_reruns_from_its_scenario_json(tmp_path):
     doc = json.loads((first / "scenario.json").read_text())
     assert doc["scenario"]["kx"] == 700.0 and doc["scenario"]["seed"] == 5 and doc["units"]["kx"] == "N/m"
     assert doc["metric_units"]["speed_m_s"] == "m/s" and doc["code_version"]
-    assert (first / "timeseries.csv").read_text().split("\n", 1)[0].startswith("t [s],x [m],y [m],z [m],q1_true [rad]")
+    header = (first / "timeseries.csv").read_text().split("\n", 1)[0]
+    assert header.startswith("t [s],x [m],y [m],z [m],q1_true [rad]")
     rerun = ["bound", "--scenario", str(first / "scenario.json"), "--no-plots", "--out", str(again)]
     assert main(rerun) == 0
     assert (first / "timeseries.csv").read_bytes() == (again / "timeseries.csv").read_bytes()
