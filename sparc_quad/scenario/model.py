@@ -138,26 +138,26 @@ class Scenario:
     # the gait
     gait: str = _key("raibert", str, "raibert: the project's speed-commanded Raibert bound; sine: the SPARC "
                      "authors' open-loop sine bound (gait A)", choices=GAITS)
-    speed: float | None = _key(None, float, "target forward speed (default 0.6)", "m/s", lo=0.0, hi=10.0,
+    speed: float | None = _key(None, float, "target forward speed (default: 0.6)", "m/s", lo=0.0, hi=10.0,
                                gaits=_RAIBERT, nullable=True)
     stride: float | None = _key(None, float, "stride length; sets the target speed to stride x frequency "
                                 "(instead of speed)", "m", lo=0.0, hi=2.0, lo_open=True, gaits=_RAIBERT,
                                 nullable=True)
-    frequency: float | None = _key(None, float, "stride frequency (default 4.0 raibert, 3.1 sine)", "Hz",
+    frequency: float | None = _key(None, float, "stride frequency (default: 4.0 raibert, 3.1 sine)", "Hz",
                                    lo=0.0, hi=10.0, lo_open=True, nullable=True)
-    step_height: float | None = _key(None, float, "swing foot clearance (default 0.07 raibert, 0.06 sine)",
+    step_height: float | None = _key(None, float, "swing foot clearance (default: 0.07 raibert, 0.06 sine)",
                                      "m", lo=0.0, hi=0.2, nullable=True)
     duty: float | None = _key(None, float, "stance fraction of each leg pair (default: 0.5 at <= 0.3 m/s to "
                               "0.45 at >= 0.6 m/s)", lo=0.0, hi=1.0, lo_open=True, hi_open=True,
                               gaits=_RAIBERT, nullable=True)
-    body_kp: float | None = _key(None, float, "stance attitude servo per body (default 6; 0 = off)",
+    body_kp: float | None = _key(None, float, "stance attitude servo per body (default: 6; 0 = off)",
                                  "N*m/rad", lo=0.0, hi=1000.0, gaits=_RAIBERT, nullable=True)
-    body_kd: float | None = _key(None, float, "its damping (default 0.6)", "N*m*s/rad", lo=0.0, hi=100.0,
+    body_kd: float | None = _key(None, float, "its damping (default: 0.6)", "N*m*s/rad", lo=0.0, hi=100.0,
                                  gaits=_RAIBERT, nullable=True)
     phase_offset: float | None = _key(None, float, "front stance starts this fraction of a stride after "
-                                      "the hind (default 0.5)", lo=0.0, hi=1.0, hi_open=True, gaits=_RAIBERT,
+                                      "the hind (default: 0.5)", lo=0.0, hi=1.0, hi_open=True, gaits=_RAIBERT,
                                       nullable=True)
-    raibert_gain: float | None = _key(None, float, "k_v of the touchdown law (default 0.1)", "s", lo=0.0,
+    raibert_gain: float | None = _key(None, float, "k_v of the touchdown law (default: 0.1)", "s", lo=0.0,
                                       hi=1.0, gaits=_RAIBERT, nullable=True)
     variant: str | None = _key(None, str, "gait A's port: authors (their start pose, control clock and "
                                "swing arc; the default on spined-dog) or literal (the first port, standing "
@@ -167,10 +167,10 @@ class Scenario:
                                      "(x = L cos phi); default 0.08 on spined-dog (the authors' run at 0.88 "
                                      "m/s; their released default 0.12 falls), 0.12 elsewhere", "m", lo=0.0,
                                      hi=0.3, gaits=_SINE, nullable=True)
-    hip_depth: float | None = _key(None, float, "foot below the hip in stance (default 0.23)", "m", lo=0.05,
+    hip_depth: float | None = _key(None, float, "foot below the hip in stance (default: 0.23)", "m", lo=0.05,
                                    hi=0.6, gaits=_SINE, nullable=True)
     direction: float | None = _key(None, float, "literal port: +1 the authors' x read as the robot's, -1 "
-                                   "reversed (default +1)", lo=-1.0, hi=1.0, gaits=_SINE, nullable=True)
+                                   "reversed (default: +1)", lo=-1.0, hi=1.0, gaits=_SINE, nullable=True)
     adapt_frequency: bool | None = _key(None, bool, "the authors' phase-of-peak frequency adaptation "
                                         "(default: on for the authors' port on spined-dog, off elsewhere)",
                                         gaits=_SINE, nullable=True)
@@ -197,16 +197,16 @@ class Scenario:
     friction_comp: bool = _key(False, bool, "the controller's Stribeck friction compensation (eq. 4)",
                                spines=_MOTOR)
     schedule: bool | None = _key(None, bool, "the authors' spine schedule: higher damping and x_d 0.273 m "
-                                 "until 4 s, then the run's gains at 0.268 m (default on)", gaits=_SINE,
+                                 "until 4 s, then the run's gains at 0.268 m (default: on)", gaits=_SINE,
                                  spines=_RENDERED, nullable=True)
     spine_rate_hz: float | None = _key(None, float, "rate of the motor-rendered spine controller (default: "
                                        "the authors' 200 in gait A, every 1 ms physics step otherwise)", "Hz",
                                        lo=1.0, hi=1000.0, spines=_MOTOR, nullable=True)
     # the torso estimator
-    imu_noise: float | None = _key(None, float, "estimator q1 noise, 1 sigma (default 0.002; 0 in the "
+    imu_noise: float | None = _key(None, float, "estimator q1 noise, 1 sigma (default: 0.002; 0 in the "
                                    "authors' run on spined-dog)", "rad", lo=0.0, hi=1.0, nullable=True)
     imu_bias: float = _key(0.0, float, "estimator q1 bias", "rad", lo=-math.pi, hi=math.pi)
-    imu_delay: int | None = _key(None, int, "estimator delay (default 1)", "1 ms steps", lo=0, hi=1000,
+    imu_delay: int | None = _key(None, int, "estimator delay (default: 1)", "1 ms steps", lo=0, hi=1000,
                                  nullable=True)
     base_motion: str | None = _key(None, str, "what the estimate tells the spine law of the base's linear "
                                    "motion: fixed (nothing: the paper's law, eq. 3), constant-twist "

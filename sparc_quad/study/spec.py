@@ -29,6 +29,8 @@ from sparc_quad.scenario import KEYS, ScenarioError
 
 GAITS = ("sine", "raibert", "raibert-opt")
 SPINES = KEYS["spine"].choices
+# the spine's gain keys (stiffness N/m or N*m/rad, damping N*s/m or N*m*s/rad): a report's k, d axes
+SPINE_GAIN_KEYS = ("kx", "kz", "kth", "dx", "dz", "dth")
 OPT_KEYS = ("popsize", "iterations", "opt_duration", "opt_seed", "opt_restarts", "opt_trial_seeds")
 STUDY_KEYS = ("name", "description", "seeds")
 MOVED = {"gait": "gait", "duration": "duration", "speeds": "speed", "slopes": "slope"}

@@ -96,7 +96,7 @@ def test_cli_bound_writes_outputs(tmp_path, capsys):
     m = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=refuse)
     assert None in m.values()  # 1.5 s is too short for the steady-window metrics: they are null
     assert m["config"]["spine"]["k"][0] == 800.0 and m["config"]["gait"]["speed_m_s"] == 0.4
-    assert (tmp_path / "timeseries.csv").read_text().startswith("t,x,y,z")
+    assert (tmp_path / "timeseries.csv").read_text().startswith("t [s],x [m],y [m],z [m]")
 
 
 def test_cli_lcm_without_a_node_says_what_to_start(tmp_path, capsys):
@@ -129,7 +129,7 @@ def test_cli_bound_no_plots_never_imports_matplotlib(tmp_path):
     r = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "MPL False" in r.stdout
-    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["metrics.json", "timeseries.csv"]
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["metrics.json", "scenario.json", "timeseries.csv"]
     r = subprocess.run([sys.executable, "-m", "sparc_quad", *argv, "--video"], capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 2 and "--no-plots" in r.stderr and "Traceback" not in r.stderr

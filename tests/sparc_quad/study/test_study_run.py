@@ -82,7 +82,7 @@ def test_csv_has_config_metrics_and_fell(local_study):
         rows = list(csv.DictReader(f))
     assert len(rows) == 3
     cols = rows[0].keys()
-    for c in ("gait", "spine", "speed", "slope", "seed", "duration", "kx", "fell", "status", "hash"):
+    for c in ("gait", "spine", "speed", "seed", "duration", "kx", "fell", "status", "hash"):
         assert c in cols
     assert any(c.startswith("m.cot_") for c in cols)
     assert {r["spine"] for r in rows} == {"impedance", "rigid"}
