@@ -129,7 +129,8 @@ def test_cli_bound_no_plots_never_imports_matplotlib(tmp_path):
     r = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "MPL False" in r.stdout
-    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["metrics.json", "scenario.json", "timeseries.csv"]
+    written = sorted(p.name for p in (tmp_path / "o").iterdir())
+    assert written == ["metrics.json", "scenario.json", "timeseries.csv"]
     r = subprocess.run([sys.executable, "-m", "sparc_quad", *argv, "--video"], capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 2 and "--no-plots" in r.stderr and "Traceback" not in r.stderr
