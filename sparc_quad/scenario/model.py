@@ -120,7 +120,11 @@ class Scenario:
     and gait's defaults (`sparc_quad.scenario.resolved`)."""
 
     # the robot and its world
-    host: str = _key(DEFAULT_HOST, str, "host robot", choices=HOSTS)
+    host: str = _key(DEFAULT_HOST, str, "host robot, one listed under robots/ (a host.toml in its folder)",
+                     choices=HOSTS)
+    host_file: str | None = _key(None, str, "a host.toml of a quadruped of your own (docs/hosts.md): the "
+                                 "spine is spliced into it on first use; replaces host", "path",
+                                 nullable=True)
     engine: str = _key(DEFAULT_ENGINE, str, "physics engine (mujoco needs the [mujoco] extra)",
                        choices=tuple(ENGINES))
     slope: float = _key(0.0, float, "ground slope, > 0 uphill", "rad", lo=-math.pi / 2, hi=math.pi / 2,
@@ -153,6 +157,13 @@ class Scenario:
     body_kp: float | None = _key(None, float, "stance attitude servo per body (default: 6; 0 = off)",
                                  "N*m/rad", lo=0.0, hi=1000.0, gaits=_RAIBERT, nullable=True)
     body_kd: float | None = _key(None, float, "its damping (default: 0.6)", "N*m*s/rad", lo=0.0, hi=100.0,
+                                 gaits=_RAIBERT, nullable=True)
+    height: float | None = _key(None, float, "hip height above the ground that the stance holds, and the "
+                                "standing start's (default: 0.22)", "m", lo=0.05, hi=1.0, gaits=_RAIBERT,
+                                nullable=True)
+    roll_kp: float | None = _key(None, float, "roll servo: left/right stance force difference per rad of roll "
+                                 "(default: 80)", "N/rad", lo=0.0, hi=1e4, gaits=_RAIBERT, nullable=True)
+    roll_kd: float | None = _key(None, float, "its damping (default: 4)", "N*s/rad", lo=0.0, hi=1e3,
                                  gaits=_RAIBERT, nullable=True)
     phase_offset: float | None = _key(None, float, "front stance starts this fraction of a stride after "
                                       "the hind (default: 0.5)", lo=0.0, hi=1.0, hi_open=True, gaits=_RAIBERT,
@@ -265,6 +276,11 @@ def check_applicable(s: Scenario) -> None:
         if s.spine not in key.spines:
             raise ScenarioError(name, f"acts only with spine {' or '.join(key.spines)}, not spine "
                                       f"{s.spine!r} (its gains and controller are fixed by the variant)")
+    if s.host_file is not None:
+        if s.host != DEFAULTS["host"]:
+            raise ScenarioError("host_file", f"names the host itself: leave host out (got host {s.host!r})")
+        if not s.host_file.endswith(".toml"):
+            raise ScenarioError("host_file", f"expected a host.toml path, got {s.host_file!r}")
     if s.speed is not None and s.stride is not None:
         raise ScenarioError("stride", "sets the target speed (stride x frequency): give speed or stride, "
                                       "not both")

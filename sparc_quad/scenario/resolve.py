@@ -10,27 +10,49 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 from sparc_quad.gaits import authors_run as A
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
-from sparc_quad.scenario.model import KEYS, Scenario
+from sparc_quad.scenario.model import KEYS, Scenario, ScenarioError
 from sparc_quad.sim import spined_dog
 from sparc_quad.sim.bound_run import BoundConfig
+from sparc_quad.sim.hosts import host_of
 from sparc_quad.sim.imu import ImuConfig
 from sparc_quad.sim.quadruped_world import WorldConfig
 from sparc_quad.sim.seed_variation import perturbation
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
 from spine_module import params as P
 
-DOG_STEP_LENGTH_M = 0.08  # the authors' run that bounds (0.88 m/s in MuJoCo); their released 0.12 falls
 _RAIBERT, _SINE = BoundParams(), SineBoundParams()
 
 
 def authors_run(s: Scenario) -> bool:
     """Gait A on the authors' own robot: their whole run (start, clock, schedule, model, estimator)."""
-    return s.gait == "sine" and s.host == spined_dog.HOST
+    return s.gait == "sine" and s.host == spined_dog.HOST and s.host_file is None
+
+
+def world_host(s: Scenario) -> str:
+    """What the world loads: a listed host's name, or the absolute path of the scenario's host file."""
+    return str(Path(s.host_file).absolute()) if s.host_file is not None else s.host
+
+
+def host_defaults(s: Scenario) -> dict[str, Any]:
+    """The scenario keys the host's file sets for `s`'s gait ([defaults.<gait>] of its host.toml): only keys
+    whose default depends on the robot (the nullable ones), each checked as the scenario checks it."""
+    try:
+        host = host_of(world_host(s))
+    except (OSError, ValueError) as exc:
+        raise ScenarioError("host_file" if s.host_file else "host", str(exc)) from None
+    out = {}
+    for name, value in host.defaults.get(s.gait, {}).items():
+        if name not in KEYS or not KEYS[name].nullable:
+            raise ScenarioError(name, f"{host.path}: [defaults.{s.gait}] may set only the keys whose default "
+                                      "depends on the robot")
+        out[name] = KEYS[name].check(value)
+    return out
 
 
 def defaults(s: Scenario) -> dict[str, Any]:
@@ -40,14 +62,15 @@ def defaults(s: Scenario) -> dict[str, Any]:
         k, d = tuple(P.K_DEFAULT), tuple(P.D_DEFAULT)
         gait = dict(speed=_RAIBERT.speed_m_s if s.stride is None else None, frequency=_RAIBERT.frequency_hz,
                     step_height=_RAIBERT.step_height_m, body_kp=_RAIBERT.body_kp, body_kd=_RAIBERT.body_kd,
-                    phase_offset=_RAIBERT.phase_offset, raibert_gain=_RAIBERT.raibert_gain_s)
+                    phase_offset=_RAIBERT.phase_offset, raibert_gain=_RAIBERT.raibert_gain_s,
+                    height=_RAIBERT.height_m, roll_kp=_RAIBERT.roll_kp, roll_kd=_RAIBERT.roll_kd)
         spine_rate = None  # every physics step
     else:
         variant = s.variant or ("authors" if authors else "literal")
         run = A.gains(P.AUTHORS_SPINE_K[0])
         k, d = run.k, run.d
         gait = dict(variant=variant, frequency=_SINE.frequency_hz, step_height=_SINE.step_height_m,
-                    step_length=DOG_STEP_LENGTH_M if s.host == spined_dog.HOST else _SINE.step_length_m,
+                    step_length=_SINE.step_length_m,
                     hip_depth=_SINE.hip_depth_m, adapt_frequency=authors and variant == "authors",
                     direction=1.0 if variant == "literal" else None, schedule=True)
         spine_rate = A.AUTHORS_CONTROL_HZ if authors else P.AUTHORS_SPINE_RATE_HZ
@@ -55,6 +78,7 @@ def defaults(s: Scenario) -> dict[str, Any]:
     out = dict(gait, kx=k[0], kz=k[1], kth=k[2], dx=d[0], dz=d[1], dth=d[2], spine_rate_hz=spine_rate,
                imu_noise=imu.q1_noise_rad, imu_delay=imu.delay_steps,
                base_motion=A.BASE_MOTION if authors else "fixed")
+    out.update(host_defaults(s))  # the host's own, over the gait's
     return {name: value for name, value in out.items()
             if s.gait in KEYS[name].gaits and s.spine in KEYS[name].spines}
 
@@ -62,6 +86,8 @@ def defaults(s: Scenario) -> dict[str, Any]:
 def resolved(s: Scenario) -> Scenario:
     """`s` with every None key that acts in it set to its default: the run as it will be simulated."""
     fill = {name: value for name, value in defaults(s).items() if getattr(s, name) is None}
+    if s.host_file is not None and not Path(s.host_file).is_absolute():
+        fill["host_file"] = str(Path(s.host_file).absolute())  # re-runs from anywhere
     return replace(s, **fill) if fill else s
 
 
@@ -72,7 +98,7 @@ def bound_config(s: Scenario) -> BoundConfig:
     authors = authors_run(r)
     base_imu = A.EXACT_IMU if authors else ImuConfig()
     imu = replace(base_imu, q1_noise_rad=r.imu_noise, q1_bias_rad=r.imu_bias, delay_steps=r.imu_delay)
-    world = WorldConfig(host=r.host, engine=r.engine, slope_rad=r.slope, seed=r.seed, imu=imu,
+    world = WorldConfig(host=world_host(r), engine=r.engine, slope_rad=r.slope, seed=r.seed, imu=imu,
                         base_motion=r.base_motion, friction=WorldConfig.friction * pert.friction,
                         mass_scale=pert.mass_scale, init_pitch_rad=pert.init_pitch_rad,
                         init_vx_m_s=pert.init_vx_m_s)
@@ -85,10 +111,11 @@ def bound_config(s: Scenario) -> BoundConfig:
     if r.gait == "raibert":
         params = replace(_RAIBERT, frequency_hz=r.frequency, step_height_m=r.step_height, duty=r.duty,
                          body_kp=r.body_kp, body_kd=r.body_kd, phase_offset=r.phase_offset,
-                         raibert_gain_s=r.raibert_gain, start_s=_RAIBERT.start_s + pert.start_phase_cycles /
+                         raibert_gain_s=r.raibert_gain, height_m=r.height, roll_kp=r.roll_kp,
+                         roll_kd=r.roll_kd, start_s=_RAIBERT.start_s + pert.start_phase_cycles /
                          r.frequency)
         params = params.with_stride(r.stride) if r.stride is not None else replace(params, speed_m_s=r.speed)
-        return BoundConfig(gait=params, **common)
+        return BoundConfig(gait=params, **{**common, "world": replace(world, stand_height_m=r.height)})
     variant_authors = r.variant == "authors"
     sine = dict(frequency_hz=r.frequency, step_length_m=r.step_length, step_height_m=r.step_height,
                 hip_depth_m=r.hip_depth, variant=r.variant, adapt_frequency=r.adapt_frequency,

@@ -9,24 +9,27 @@ import pytest
 
 from sparc_quad.robots import ROBOTS_DIR
 from sparc_quad.sim import quadruped_urdf as Q
+from sparc_quad.sim.hosts import host_files, host_of, listed_hosts
 from spine_module import params as P
 
+SPLICED = [h for h, f in listed_hosts().items() if f.generator == "splice"]
 
-@pytest.mark.parametrize("host", Q.ROBOT_HOSTS)
+
+@pytest.mark.parametrize("host", SPLICED)
 def test_committed_files_match_the_generator(host):
     files = Q.generate(ROBOTS_DIR)
-    for path in Q.robot_paths(ROBOTS_DIR, host):
+    for path in Q.robot_paths(ROBOTS_DIR / f"sparc_{host}", host):
         assert path.read_text() == files[path], f"{path} drifted: run `sparc-quad robots generate`"
 
 
 def test_host_found_in_installed_example_robot_data():
-    path = Q.host_urdf_path(Q.HOSTS["solo12"])
+    path = host_of("solo12").urdf_path()
     assert path.exists() and path.name == "solo12.urdf"
 
 
-@pytest.mark.parametrize("host", Q.ROBOT_HOSTS)
+@pytest.mark.parametrize("host", SPLICED)
 def test_loads_in_pybullet_with_expected_joints_and_mass(host):
-    urdf, meta_path = Q.robot_paths(ROBOTS_DIR, host)
+    urdf, meta_path = host_files(host).urdf, host_files(host).meta
     meta = json.loads(meta_path.read_text())
     c = pb.connect(pb.DIRECT)
     try:
@@ -47,7 +50,7 @@ def test_loads_in_pybullet_with_expected_joints_and_mass(host):
 
 
 def test_hip_spacing_equals_host_at_equilibrium():
-    meta = Q.quadruped("solo12").meta
+    meta = Q.quadruped(host_of("solo12")).meta
     front = meta["legs"]["FL"]["hip_x_m"] + P.X_EQUILIBRIUM[0] - meta["front_body_length_m"]
     assert front - meta["legs"]["HL"]["hip_x_m"] == pytest.approx(0.3892, abs=1e-6)  # Solo12: 2 x 0.1946
     assert meta["q_equilibrium"] == pytest.approx(list(P.Q_EQUILIBRIUM))

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from sparc_quad.robots import ROBOTS_DIR
+from sparc_quad.sim.hosts import listed_hosts
 from spine_module import params as P
 
 
@@ -24,7 +25,7 @@ def test_spine_readme_masses_match_params():
     assert got == pytest.approx(want, abs=5e-4)
 
 
-@pytest.mark.parametrize("host", ["solo12", "a1"])
+@pytest.mark.parametrize("host", [h for h, f in listed_hosts().items() if f.generator == "splice"])
 def test_quadruped_readme_masses_match_generator_json(host):
     meta = json.loads((ROBOTS_DIR / f"sparc_{host}" / f"sparc_{host}.json").read_text())
     want = dict(meta["mass_kg"]) | {f"leg_{k}": v["mass_kg"] for k, v in meta["legs"].items()}
