@@ -42,9 +42,9 @@ SPEED_SHORTFALL = 0.75  # mean speed below this fraction of the target: the gait
 GROUPS = {  # scenario keys by option group, in the order --help lists them
     "the robot and its world": ("host", "host_file", "engine", "slope", "seed", "duration", "settle",
                                 "latency_steps"),
-    "the gait": ("gait", "speed", "stride", "frequency", "step_height", "duty", "height", "body_kp", "body_kd",
-                 "roll_kp", "roll_kd", "phase_offset", "raibert_gain", "variant", "step_length", "hip_depth", "direction",
-                 "adapt_frequency"),
+    "the gait": ("gait", "speed", "stride", "frequency", "step_height", "duty", "height", "body_kp",
+                 "body_kd", "roll_kp", "roll_kd", "phase_offset", "raibert_gain", "variant", "step_length",
+                 "hip_depth", "direction", "adapt_frequency"),
     "the spine": ("spine", "spine_path", "kx", "kz", "kth", "dx", "dz", "dth", "friction_comp", "schedule",
                   "spine_rate_hz"),
     "the torso estimator": ("imu_noise", "imu_bias", "imu_delay", "base_motion"),

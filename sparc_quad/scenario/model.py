@@ -161,8 +161,8 @@ class Scenario:
     height: float | None = _key(None, float, "hip height above the ground that the stance holds, and the "
                                 "standing start's (default: 0.22)", "m", lo=0.05, hi=1.0, gaits=_RAIBERT,
                                 nullable=True)
-    roll_kp: float | None = _key(None, float, "roll servo: left/right stance force difference per rad of roll "
-                                 "(default: 80)", "N/rad", lo=0.0, hi=1e4, gaits=_RAIBERT, nullable=True)
+    roll_kp: float | None = _key(None, float, "roll servo: left/right stance force difference per rad of "
+                                 "roll (default: 80)", "N/rad", lo=0.0, hi=1e4, gaits=_RAIBERT, nullable=True)
     roll_kd: float | None = _key(None, float, "its damping (default: 4)", "N*s/rad", lo=0.0, hi=1e3,
                                  gaits=_RAIBERT, nullable=True)
     phase_offset: float | None = _key(None, float, "front stance starts this fraction of a stride after "

@@ -26,7 +26,7 @@ velocity_limit_rad_s = 21.0
 
 def test_the_listed_hosts_are_their_host_files():
     assert HOSTS[:3] == ("solo12", "a1", "spined-dog") and {"go1", "go2"} <= set(HOSTS)
-    for name, host in listed_hosts().items():
+    for host in listed_hosts().values():
         assert host.path == ROBOTS_DIR / host.path.parent.name / "host.toml" and check_host(host.path) == []
     assert resolved(Scenario(host="a1")).frequency == 3.0  # its file's [defaults.raibert]
     assert resolved(Scenario(host="solo12")).frequency == 4.0  # the gait's own
