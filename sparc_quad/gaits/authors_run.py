@@ -81,8 +81,8 @@ def gains(k_x_n_m: float) -> SpineGains:
 
 
 def node_config():
-    """The spine node for their run (`bound --spine-path node`): no soft start (their controller has full gains
-    from its first call) and the dog's joint range (the SPARC module's limits would damp the dog's
+    """The spine node for their run (`bound --spine-path node`): no soft start (their controller has full
+    gains from its first call) and the dog's joint range (the SPARC module's limits would damp the dog's
     spine, whose joints range over +-10 rad)."""
     import numpy as np
 
