@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 OUT ?= out/demo
 
-.PHONY: install demo test test-unit test-slow lint bench clean constraints
+.PHONY: install demo test test-unit test-slow test-reproduction lint bench clean constraints
 
 # Everything (`.[all,dev]`), pinned by constraints.txt so a new release of a dependency cannot change the
 # test environment without a commit. The robot itself needs only `pip install .` (see README).
@@ -23,14 +23,19 @@ demo: install
 # the default suite on every CPU (pytest-xdist): each test file runs whole, in order, in one worker
 test: install
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q -m "not slow" -n auto --dist loadfile
+	$(BIN)/python -m pytest -q -m "not slow and not reproduction" -n auto --dist loadfile
 
 # the unit tier (under a minute): no slow studies, no multi-process or end-to-end workflow tests
 test-unit: install
-	$(BIN)/python -m pytest -q -m "not slow and not integration" -n auto --dist loadfile
+	$(BIN)/python -m pytest -q -m "not slow and not integration and not reproduction" -n auto --dist loadfile
 
 test-slow: install
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -m "slow and not reproduction"
+
+# the tests that compare against the SPARC authors' own files: SPARC_AUTHORS_REPO=<a git checkout of
+# github.com/YueWang996/sparc> make test-reproduction (they fail, not skip, without it)
+test-reproduction: install
+	$(BIN)/python -m pytest -q -m reproduction
 
 lint: install
 	$(BIN)/ruff check .

@@ -54,6 +54,23 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.integration)
 
 
+AUTHORS_REPO_ENV = "SPARC_AUTHORS_REPO"
+
+
+@pytest.fixture(scope="session")
+def authors_repo() -> Path:
+    """A git checkout of the SPARC authors' repository, for the reproduction tier (`make test-reproduction`):
+    the tests that compare against their files fail, never skip, without it."""
+    import os
+
+    path = os.environ.get(AUTHORS_REPO_ENV)
+    if not path or not (Path(path) / ".git").exists() and not (Path(path) / "HEAD").exists():
+        pytest.fail(f"the reproduction tier needs the SPARC authors' repository: "
+                    f"git clone https://github.com/YueWang996/sparc /some/folder, then "
+                    f"{AUTHORS_REPO_ENV}=/some/folder make test-reproduction (got {AUTHORS_REPO_ENV}={path!r})")
+    return Path(path)
+
+
 @pytest.fixture(scope="session")
 def lcm_run(tmp_path_factory):
     """A recorded node session: `spine-node` + `bench-robot` (static push-pull, k_x = K, one PERIOD) +

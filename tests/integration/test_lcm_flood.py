@@ -19,18 +19,28 @@ pytestmark = [pytest.mark.slow, pytest.mark.netns,
               pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")]
 
 
-def test_garbage_flood_on_each_input_latches_nothing(tmp_path):
+ATTEMPTS = 3  # a run whose decoy alone was starved by the host is measured again, then it fails
+
+
+def _measure(tmp_path) -> dict:
     out = tmp_path / "flood.json"
     r = subprocess.run([sys.executable, str(ROOT / "bench" / "lcm_flood.py"), "--seconds", "3", "--rate",
                         "10000", "--json", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr[-3000:]
-    res = json.loads(out.read_text())
-    base = res["decoy"]
-    assert not base["latched"] and base["flood_sent"] > 0
-    if base["ticks_heartbeat_lost"] > 0.2 * base["robot_ticks"]:  # the host, not the flood, starved it
-        pytest.skip(f"host too loaded for this real-time comparison: the decoy run alone lost the "
-                    f"heartbeat in {base['ticks_heartbeat_lost']} of {base['robot_ticks']} ticks, load "
-                    f"{res['loadavg']}")
+    return json.loads(out.read_text())
+
+
+def test_garbage_flood_on_each_input_latches_nothing(tmp_path):
+    for _ in range(ATTEMPTS):
+        res = _measure(tmp_path)
+        base = res["decoy"]
+        assert not base["latched"] and base["flood_sent"] > 0
+        if base["ticks_heartbeat_lost"] <= 0.2 * base["robot_ticks"]:
+            break
+    else:  # the host, not the flood, starved the decoy run every time: no comparison can be made
+        pytest.fail(f"host too loaded for this real-time comparison in {ATTEMPTS} attempts: the decoy run "
+                    f"alone lost the heartbeat in {base['ticks_heartbeat_lost']} of {base['robot_ticks']} "
+                    f"ticks, load {res['loadavg']}; run it on an idle machine (make test-slow)")
     for c in res["flooded"]:
         assert not c["latched"], c
         assert c["refused"] > 0.1 * c["flood_sent"], c  # the flood reached the node and was refused

@@ -46,6 +46,7 @@ What it reproduces, as their code runs it:
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -53,7 +54,8 @@ from pathlib import Path
 
 import numpy as np
 
-SNAPSHOT = Path("/work/.mirror/YueWang996+sparc/repo")
+# a git checkout of github.com/YueWang996/sparc (MIT), as the reproduction tier names it (tests/conftest.py)
+SNAPSHOT = Path(os.environ.get("SPARC_AUTHORS_REPO", "/nonexistent-sparc-authors-repo"))
 SNAPSHOT_MJCF = "mujoco_simulation/asset/spined_dog.xml"
 
 LEG_JOINTS = ("joint_hind_left_leg_upper", "joint_hind_left_leg_lower",

@@ -16,7 +16,6 @@ from sparc_quad.sim import spined_dog as D
 from sparc_quad.sim.hosts import host_files
 from sparc_quad.sim.robot_files import generate_all
 
-SNAPSHOT = Path("/work/.mirror/YueWang996+sparc/repo")
 AUTHORS_MJCF = "mujoco_simulation/asset/spined_dog.xml"
 
 
@@ -25,15 +24,13 @@ def _ours():
     return mujoco, mujoco.MjModel.from_xml_path(str(host_files(D.HOST).mjcf))
 
 
-def _authors():
+def _authors(repo: Path):
     """The authors' MJCF compiled without its (visual-only) meshes, whose files are not all present."""
     mujoco = pytest.importorskip("mujoco")
-    if not (SNAPSHOT / "HEAD").exists() and not (SNAPSHOT / ".git").exists():
-        pytest.skip("no snapshot of github.com/YueWang996/sparc on this machine")
-    res = subprocess.run(["git", "-C", str(SNAPSHOT), "show", f"{D.SOURCE_COMMIT}:{AUTHORS_MJCF}"],
+    res = subprocess.run(["git", "-C", str(repo), "show", f"{D.SOURCE_COMMIT}:{AUTHORS_MJCF}"],
                          capture_output=True, text=True)
     if res.returncode != 0:
-        pytest.skip(f"snapshot lacks {AUTHORS_MJCF} at {D.SOURCE_COMMIT[:7]}")
+        pytest.fail(f"{repo} lacks {AUTHORS_MJCF} at commit {D.SOURCE_COMMIT[:7]}: fetch their full history")
     spec = mujoco.MjSpec.from_string(res.stdout)
     for g in list(spec.geoms):
         if g.type == mujoco.mjtGeom.mjGEOM_MESH:
@@ -97,9 +94,10 @@ def test_urdf_carries_the_table():
     assert list(model.effortLimit[6:]) == [D.MOTOR_LIMIT_NM] * 11
 
 
-def test_table_matches_the_authors_mjcf():
+@pytest.mark.reproduction
+def test_table_matches_the_authors_mjcf(authors_repo):
     _, ours = _ours()
-    theirs = _authors()
+    theirs = _authors(authors_repo)
     assert ours.nbody == theirs.nbody and ours.njnt == theirs.njnt and ours.nu == theirs.nu
     for i in range(1, ours.nbody):
         j = theirs.body(ours.body(i).name).id

@@ -140,9 +140,11 @@ def test_fuzz_can_decoders_and_emulator_short():
 def test_fuzz_lcm_decoders_long():
     out = _fuzz_lcm(100_000, seed=11)
     print("LCM fuzz 100k:", out)
+    assert out["rejected"] > 20_000 and out["accepted"] > 2_000, out  # both paths, at the short run's share
 
 
 @pytest.mark.slow
 def test_fuzz_can_decoders_and_emulator_long():
     out = _fuzz_can(200_000, seed=12)
     print("CAN fuzz 200k:", out)
+    assert out["rejected"] > 40_000 and out["decoded"] > 4_000, out
