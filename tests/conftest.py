@@ -67,7 +67,8 @@ def authors_repo() -> Path:
     if not path or (not (Path(path) / ".git").exists() and not (Path(path) / "HEAD").exists()):
         pytest.fail(f"the reproduction tier needs the SPARC authors' repository: "
                     f"git clone https://github.com/YueWang996/sparc /some/folder, then "
-                    f"{AUTHORS_REPO_ENV}=/some/folder make test-reproduction (got {AUTHORS_REPO_ENV}={path!r})")
+                    f"{AUTHORS_REPO_ENV}=/some/folder make test-reproduction "
+                    f"(got {AUTHORS_REPO_ENV}={path!r})")
     return Path(path)
 
 
