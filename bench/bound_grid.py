@@ -12,8 +12,8 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
+from sparc_quad.bound.run import BoundConfig, run_bound
 from sparc_quad.gaits.bound import BoundParams
-from sparc_quad.sim.bound_run import BoundConfig, run_bound
 from sparc_quad.sim.spine_drive import SpineGains
 from spine_module import params as P
 

@@ -9,7 +9,7 @@ run. The zero-torque "raw" stepping is context only (the robot collapses, so its
 
 The bound runs the compiled per-step code (`--backend numba`, what `sparc-quad bound` picks for runs of 8 s
 or longer; loading it is a per-process cost that bench/run_cost.py measures), which runs the control half of
-each step in one compiled call (`sim.compiled_loop`; `loop` says which loop ran); one run with the other
+each step in one compiled call (`bound.compiled_loop`; `loop` says which loop ran); one run with the other
 backend is reported beside it as `context_<backend>_backend_vs_physics_only`, and one with the same compiled
 controllers called from the Python loop (`run_bound(..., compiled_loop=False)`, the reference of the
 compiled loop, the same series bit for bit) as `context_python_loop_vs_physics_only`.
@@ -41,8 +41,8 @@ from pathlib import Path
 
 import pybullet as pb
 
+from sparc_quad.bound.run import PROFILE_PHASES, BoundConfig, run_bound
 from sparc_quad.robot_side.quad import NodeSpine
-from sparc_quad.sim.bound_run import PROFILE_PHASES, BoundConfig, run_bound
 from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -164,9 +164,9 @@ def bound_legs(duration_s: float, repeat: int, unpinned: bool) -> dict:
     """In-process bound against the same bound over LCM lockstep, alternating, best of `repeat`."""
     import numpy as np
 
+    from sparc_quad.bound.run import BoundConfig, run_bound
     from sparc_quad.robot_side.quad import NodeSpine
     from sparc_quad.sim.bound_log import COLUMNS
-    from sparc_quad.sim.bound_run import BoundConfig, run_bound
     from spine_module.buses.lcm import DEDICATED_CPU_SPIN_S
     from spine_module.messages.channels import COSIM_URL
 

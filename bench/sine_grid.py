@@ -27,7 +27,7 @@ DIRECTION = (1.0, -1.0)  # +1: the authors' code literally
 def grid(duration: float) -> list[dict]:
     from dataclasses import replace
 
-    from sparc_quad.sim.bound_run import run_bound
+    from sparc_quad.bound.run import run_bound
     from sparc_quad.study.trial import config_of as bound_config
 
     rows = []

@@ -21,7 +21,7 @@ from sparc_quad.scenario import Scenario, bound_config, write_scenario
 
 def spine_for(scenario: Scenario, cfg=None):
     """The spine a scenario's `spine_path` asks for: None (the controller called in process, the default
-    of `sim.bound_run.run_bound`) or the spine node on its in-process bus."""
+    of `bound.run.run_bound`) or the spine node on its in-process bus."""
     if scenario.spine_path != "node":
         return None
     from sparc_quad.gaits import authors_run
@@ -37,10 +37,10 @@ def spine_for(scenario: Scenario, cfg=None):
 
 def run_bound(scenario: Scenario, *, backend: str = "auto", realtime: bool = False, spine=None,
               video: bool = False, stop: Callable[[], bool] | None = None):
-    """Simulate `scenario`; a `sim.bound_run.BoundResult` whose `scenario` is the one it ran. `backend`
+    """Simulate `scenario`; a `bound.run.BoundResult` whose `scenario` is the one it ran. `backend`
     (auto | numba | python) changes how fast, not what; `spine` (a `SimSpine`) replaces the scenario's
     spine path (`bound --lcm` passes the node over LCM)."""
-    from sparc_quad.sim import bound_run
+    from sparc_quad.bound import run as bound_run
 
     cfg = replace(bound_config(scenario), backend=backend, realtime=realtime)
     spine = spine if spine is not None else spine_for(scenario, cfg)
@@ -51,8 +51,8 @@ def run_bound(scenario: Scenario, *, backend: str = "auto", realtime: bool = Fal
 
 def metric_units(metrics: dict[str, Any]) -> dict[str, str]:
     """The unit of every metric in `metrics` that the metrics table or the run facts define."""
+    from sparc_quad.bound.run import FACT_UNITS
     from sparc_quad.metrics import TABLE
-    from sparc_quad.sim.bound_run import FACT_UNITS
 
     units = {**FACT_UNITS, **{name: m.unit for name, m in TABLE.items()}}
     return {name: units[name] for name in metrics if name in units}
@@ -61,7 +61,7 @@ def metric_units(metrics: dict[str, Any]) -> dict[str, str]:
 def write_outputs(result, out: Path, plots: bool = True) -> list[Path]:
     """scenario.json (when the result came from a scenario), metrics.json, timeseries.csv (units in its
     header), node_states.npz and, with `plots`, the PNG plots."""
-    from sparc_quad.sim import bound_run
+    from sparc_quad.bound import run as bound_run
 
     out = Path(out)
     paths = bound_run.write_outputs(result, out, plots=plots)

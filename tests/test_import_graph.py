@@ -4,10 +4,17 @@ arrow against the layering.
     spine_module            runs on the robot: never imports sparc_quad, the simulator, plotting or stats
     sparc_quad.robots       where the URDFs live: imports nothing of sparc_quad
     sparc_quad.effects      the effect library and plant file (below sim and gap): imports neither
-    sparc_quad.sim          the simulator: never imports robot_side/, experiments/, gap/, study/ or cli/
-    sparc_quad.robot_side   the robot's side of the spine interface (above sim): never imports experiments/,
-                            gap/, study/ or cli/
+    sparc_quad.sim          the worlds (physics, robots, spine drives): imports none of the layers above it
+    sparc_quad.gaits        leg controllers (read a world): above sim
+    sparc_quad.metrics      what a bound's log measures: above sim
+    sparc_quad.bound        the run driver over world, gait, spine and metrics
+    sparc_quad.robot_side   the robot's side of the spine interface (above sim)
+    sparc_quad.scenario     one description of a run, and the translation into the driver's configuration
+    sparc_quad.study, gap, experiments   tools over runs
     sparc_quad.cli          imports anything; nothing imports it
+
+`test_packages_form_a_layered_graph` checks the same at package level: the graph of the packages has no
+cycle.
 """
 
 from __future__ import annotations
@@ -176,7 +183,16 @@ def test_known_exceptions_still_exist():
     ("sparc_quad.effects", ("sparc_quad.sim", "sparc_quad.gap", "sparc_quad.robot_side",
                             "sparc_quad.experiments", "sparc_quad.study", "sparc_quad.cli", "pybullet")),
     ("sparc_quad.sim", ("sparc_quad.robot_side", "sparc_quad.experiments", "sparc_quad.gap",
-                        "sparc_quad.study", "sparc_quad.cli")),
+                        "sparc_quad.study", "sparc_quad.cli", "sparc_quad.gaits", "sparc_quad.metrics",
+                        "sparc_quad.bound", "sparc_quad.scenario", "sparc_quad.api")),
+    ("sparc_quad.gaits", ("sparc_quad.bound", "sparc_quad.metrics", "sparc_quad.scenario", "sparc_quad.study",
+                          "sparc_quad.robot_side", "sparc_quad.api")),
+    ("sparc_quad.metrics", ("sparc_quad.gaits", "sparc_quad.bound", "sparc_quad.scenario", "sparc_quad.study",
+                            "sparc_quad.robot_side", "sparc_quad.api")),
+    ("sparc_quad.bound", ("sparc_quad.scenario", "sparc_quad.study", "sparc_quad.cli", "sparc_quad.api",
+                          "sparc_quad.gap", "sparc_quad.experiments")),
+    ("sparc_quad.scenario", ("sparc_quad.study", "sparc_quad.cli", "sparc_quad.api", "sparc_quad.gap",
+                             "sparc_quad.experiments")),
     ("sparc_quad.robot_side", ("sparc_quad.experiments", "sparc_quad.gap", "sparc_quad.study",
                                "sparc_quad.cli")),
     ("sparc_quad.experiments", ("sparc_quad.cli",)),
@@ -190,3 +206,21 @@ def test_layering(layer, forbidden):
 
 def test_cycle_detector_can_fail():
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == [["a", "b", "c"]]
+
+
+def _package(module: str) -> str:
+    """The package a module belongs to: its first two dotted names (sparc_quad.sim), or the module itself
+    for a top-level one (sparc_quad.api)."""
+    parts = module.split(".")
+    return ".".join(parts[:2])
+
+
+def test_packages_form_a_layered_graph():
+    """Module cycles aside, no two packages import each other through any chain: the folder layout is the
+    architecture (sim below gaits below bound below scenario ...)."""
+    packages: dict[str, set[str]] = {}
+    for mod, deps in _internal(GRAPH).items():
+        src = _package(mod)
+        packages.setdefault(src, set()).update(_package(d) for d in deps if _package(d) != src)
+    cycles = [c for c in _cycles(packages) if not all(p.startswith("spine_module") for p in c)]
+    assert cycles == [], cycles

@@ -13,12 +13,12 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from sparc_quad.bound.run import BoundConfig
 from sparc_quad.gaits import authors_run as A
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
 from sparc_quad.scenario.model import KEYS, Scenario, ScenarioError
 from sparc_quad.sim import spined_dog
-from sparc_quad.sim.bound_run import BoundConfig
 from sparc_quad.sim.hosts import host_of
 from sparc_quad.sim.imu import ImuConfig
 from sparc_quad.sim.quadruped_world import WorldConfig

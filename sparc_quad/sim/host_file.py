@@ -24,6 +24,7 @@ The spined dog (`generator = "spined-dog"`) is the authors' own robot, built by 
 
 from __future__ import annotations
 
+import importlib.metadata
 import math
 import re
 import tomllib
@@ -79,9 +80,27 @@ class HostFile:
         """The host's own URDF on this machine."""
         if self.urdf is not None:
             return self.urdf
-        from sparc_quad.sim.quadruped_urdf import erd_urdf_path
-
         return erd_urdf_path(self.erd_subpath)
+
+
+ERD_DISTRIBUTION = "example-robot-data"
+
+
+def erd_urdf_path(subpath: str) -> Path:
+    """Locate a URDF inside the installed example-robot-data (cmeel prefix), no fixed path."""
+    suffix = "share/example-robot-data/" + subpath
+    try:
+        dist = importlib.metadata.distribution(ERD_DISTRIBUTION)
+        for f in dist.files or ():
+            if str(f).replace("\\", "/").endswith(suffix):
+                path = Path(dist.locate_file(f))
+                if path.exists():
+                    return path
+    except importlib.metadata.PackageNotFoundError:
+        pass
+    import example_robot_data  # fallback: the package's own lookup
+
+    return Path(example_robot_data.getModelPath(subpath)) / subpath
 
 
 def _read(path: Path) -> dict:

@@ -94,3 +94,13 @@ def leg_torque_limit_nm(host: str) -> float:
     """The leg motors' torque limit of `host`, N*m."""
     spec = host_of(host)
     return spined_dog.MOTOR_LIMIT_NM if spec.generator == "spined-dog" else spec.leg_torque_limit_nm
+
+
+def generate(robots_dir: Path) -> dict[Path, str]:
+    """Files for every spliced host listed under `robots_dir` (a `host.toml` per folder): path -> text (see
+    `sparc_quad.sim.robot_files.generate_all`)."""
+    files: dict[Path, str] = {}
+    for host in listed_hosts.__wrapped__(robots_dir).values():
+        if host.generator == "splice":
+            files.update(files_of(host))
+    return files

@@ -26,7 +26,6 @@ Choices (each one is repeated in the URDF's header comment and in docs/bounding.
 
 from __future__ import annotations
 
-import importlib.metadata
 import json
 import math
 import xml.etree.ElementTree as ET
@@ -36,27 +35,7 @@ from pathlib import Path
 from sparc_quad.sim.host_file import HostFile
 from spine_module import params as P
 
-ERD_DISTRIBUTION = "example-robot-data"
-
-
 DEFAULT_HOST = "solo12"
-
-
-def erd_urdf_path(subpath: str) -> Path:
-    """Locate a URDF inside the installed example-robot-data (cmeel prefix), no fixed path."""
-    suffix = "share/example-robot-data/" + subpath
-    try:
-        dist = importlib.metadata.distribution(ERD_DISTRIBUTION)
-        for f in dist.files or ():
-            if str(f).replace("\\", "/").endswith(suffix):
-                path = Path(dist.locate_file(f))
-                if path.exists():
-                    return path
-    except importlib.metadata.PackageNotFoundError:
-        pass
-    import example_robot_data  # fallback: the package's own lookup
-
-    return Path(example_robot_data.getModelPath(subpath)) / subpath
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -433,15 +412,3 @@ def files_of(host: HostFile, folder: Path | None = None) -> dict[Path, str]:
     model = quadruped(host)
     urdf_path, meta_path = robot_paths(folder or host.folder, host.name)
     return {urdf_path: model.urdf, meta_path: json.dumps(model.meta, indent=2, sort_keys=True) + "\n"}
-
-
-def generate(robots_dir: Path) -> dict[Path, str]:
-    """Files for every spliced host listed under `robots_dir` (a `host.toml` per folder): path -> text (see
-    `sparc_quad.sim.robot_files.generate_all`)."""
-    from sparc_quad.sim.hosts import listed_hosts
-
-    files: dict[Path, str] = {}
-    for host in listed_hosts(robots_dir).values():
-        if host.generator == "splice":
-            files.update(files_of(host))
-    return files

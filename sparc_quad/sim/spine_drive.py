@@ -142,7 +142,7 @@ class ImpedanceSpine(SpineDrive):
 
     backend: "pinocchio" (the reference path; no numba loaded) or "numba" (the compiled step, equal to the
     reference to ~1e-12, ~15x cheaper per step but ~0.7 s of CPU to load per process); a bound run picks
-    it with `sim.loop_backend.resolve_backend`.
+    it with `bound.backend.resolve_backend`.
     """
 
     name = "impedance"

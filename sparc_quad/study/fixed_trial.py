@@ -8,9 +8,9 @@ same one `sparc-quad bound` builds from the same keys, so a study trial is what 
 
 from __future__ import annotations
 
+from sparc_quad.bound.run import BoundConfig, run_bound
 from sparc_quad.metrics import merge_disjoint
 from sparc_quad.scenario import Scenario, ScenarioError, bound_config, resolved
-from sparc_quad.sim.bound_run import BoundConfig, run_bound
 from sparc_quad.sim.seed_variation import perturbation
 
 GAITS = ("sine", "raibert", "raibert-opt")

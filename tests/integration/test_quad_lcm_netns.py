@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sparc_quad.bound.run import BoundConfig, run_bound
 from sparc_quad.robot_side.quad import NodeSpine
-from sparc_quad.sim.bound_run import BoundConfig, run_bound
 from spine_module.messages import channels
 from tests.node_netns import run_in_netns, unshare_prefix
 from tests.paths import ROOT

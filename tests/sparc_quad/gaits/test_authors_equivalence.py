@@ -36,8 +36,8 @@ from tests.paths import ROOT
 
 pytest.importorskip("mujoco")
 
+from sparc_quad.bound.run import run_bound
 from sparc_quad.gaits import authors_run
-from sparc_quad.sim.bound_run import run_bound
 from sparc_quad.sim.control_clock import ControlClock
 from tests.reference import authors_bound as ref
 from tests.scenarios import authors_config

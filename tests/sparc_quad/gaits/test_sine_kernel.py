@@ -9,8 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from sparc_quad.bound.run import direct_spine, make_gait, run_bound
 from sparc_quad.gaits import sine_kernel
-from sparc_quad.sim.bound_run import direct_spine, make_gait, run_bound
 from sparc_quad.sim.quadruped_world import make_world
 from tests.scenarios import authors_config
 

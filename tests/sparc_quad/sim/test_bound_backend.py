@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sparc_quad.bound import run as bound_run
+from sparc_quad.bound.backend import NUMBA_PAYBACK_SIM_S, resolve_backend
+from sparc_quad.bound.run import BoundConfig, run_bound
 from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound import BoundController, BoundParams
-from sparc_quad.sim import bound_run
-from sparc_quad.sim.bound_run import BoundConfig, run_bound
-from sparc_quad.sim.loop_backend import NUMBA_PAYBACK_SIM_S, resolve_backend
 from sparc_quad.sim.quadruped_world import WorldConfig
 from sparc_quad.sim.spine_drive import ImpedanceSpine, SpineGains
 from tests.paths import DATA

@@ -1,4 +1,4 @@
-"""The bound's compiled loop (`sim.compiled_loop`: the control half of each step in one compiled call)
+"""The bound's compiled loop (`bound.compiled_loop`: the control half of each step in one compiled call)
 against the Python loop on the same compiled controllers: the same series bit for bit, through clamps, the
 joint-limit damping and falls; the pieces the kernel states again (the node's output stage, the torso
 estimator) on their own; and the runs it leaves to the Python loop."""
@@ -12,10 +12,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from sparc_quad.bound.run import BoundConfig, run_bound
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.sim import compiled_loop, step_kernel
 from sparc_quad.sim.bound_log import COLUMNS
-from sparc_quad.sim.bound_run import BoundConfig, run_bound
 from sparc_quad.sim.imu import ImuConfig
 from sparc_quad.sim.quadruped_world import Estimator, WorldConfig
 from sparc_quad.sim.spine_drive import SpineGains
@@ -109,7 +109,7 @@ def test_runs_it_cannot_compile_take_the_python_loop(change):
 
 
 def test_why_not_names_what_stops_it():
-    from sparc_quad.sim.bound_run import direct_spine, make_gait
+    from sparc_quad.bound.run import direct_spine, make_gait
     from sparc_quad.sim.quadruped_world import make_world
 
     for cfg, words in ((BoundConfig(spine_variant="passive", backend="numba"), "spine"),
@@ -164,7 +164,7 @@ def _same(x: float, y: float) -> bool:
 def test_kernel_output_stage_equals_safety_limit_torque():
     from numba import njit
 
-    import sparc_quad.sim.step_compiled  # noqa: F401  (makes the kernel's helpers callable from compiled code)
+    import sparc_quad.bound.step_compiled  # noqa: F401  (makes the kernel's helpers callable from compiled code)
 
     limit3 = step_kernel.limit_torque3
 

@@ -109,8 +109,8 @@ def test_mass_scale_scales_both_engines():
 
 def test_run_bound_has_the_same_outputs_on_both_engines(tmp_path):
     """A 1 s sine bound of the spined dog: same columns, same metric keys, finite state, on each engine."""
+    from sparc_quad.bound.run import BoundConfig, run_bound, write_outputs
     from sparc_quad.gaits.sine_bound import SineBoundParams
-    from sparc_quad.sim.bound_run import BoundConfig, run_bound, write_outputs
 
     keys = {}
     for engine in ENGINES:

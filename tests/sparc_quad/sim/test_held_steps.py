@@ -9,8 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from sparc_quad.bound.run import fill_held_rows, run_bound
 from sparc_quad.sim.bound_log import COLUMNS
-from sparc_quad.sim.bound_run import fill_held_rows, run_bound
 from sparc_quad.sim.quadruped_world import HELD_STATE, make_world
 from tests.scenarios import authors_config
 from tests.scenarios import trial_config as bound_config

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sparc_quad.sim.bound_run import BoundConfig, run_bound, write_outputs
+from sparc_quad.bound.run import BoundConfig, run_bound, write_outputs
 from sparc_quad.sim.quadruped_world import Estimator, ImuConfig
 from sparc_quad.sim.spine_drive import SpineGains
 from tests.paths import ROOT

@@ -8,6 +8,7 @@ import pybullet as pb
 import pytest
 
 from sparc_quad.robots import ROBOTS_DIR
+from sparc_quad.sim import hosts
 from sparc_quad.sim import quadruped_urdf as Q
 from sparc_quad.sim.hosts import host_files, host_of, listed_hosts
 from spine_module import params as P
@@ -17,7 +18,7 @@ SPLICED = [h for h, f in listed_hosts().items() if f.generator == "splice"]
 
 @pytest.mark.parametrize("host", SPLICED)
 def test_committed_files_match_the_generator(host):
-    files = Q.generate(ROBOTS_DIR)
+    files = hosts.generate(ROBOTS_DIR)
     for path in Q.robot_paths(ROBOTS_DIR / f"sparc_{host}", host):
         assert path.read_text() == files[path], f"{path} drifted: run `sparc-quad robots generate`"
 
@@ -57,8 +58,8 @@ def test_hip_spacing_equals_host_at_equilibrium():
 
 
 def test_second_host_stands_in_the_world():
+    from sparc_quad.bound.run import BoundConfig, run_bound
     from sparc_quad.gaits.bound import BoundParams
-    from sparc_quad.sim.bound_run import BoundConfig, run_bound
     from sparc_quad.sim.quadruped_world import WorldConfig
 
     cfg = BoundConfig(duration_s=1.0, world=WorldConfig(host="a1"), gait=BoundParams(start_s=10.0),

@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from sparc_quad.bound.run import COLUMNS, BoundConfig, run_bound
 from sparc_quad.metrics import COTS, GROUPS
-from sparc_quad.sim.bound_run import COLUMNS, BoundConfig, run_bound
 from sparc_quad.sim.quadruped_world import WorldConfig
 from sparc_quad.study.trial import run_trial
 from spine_module import params as P
@@ -87,7 +87,7 @@ def test_fall_reason_keeps_the_first_fall():
 
 
 def test_fall_reason_is_not_overwritten_by_later_steps(monkeypatch):
-    from sparc_quad.sim import bound_run
+    from sparc_quad.bound import run as bound_run
 
     def scripted(world, pitch_front):  # falls at 5 ms, looks fine, then "falls" differently
         k = world.steps
@@ -149,7 +149,7 @@ def test_raibert_opt_tunes_then_runs_and_a_tuned_gait_skips_the_search():
 
 def test_a_trial_that_falls_early_reports_every_metric_as_nan_and_stops_measuring_at_the_fall():
     cfg = {"gait": "raibert", "duration": 0.6, "settle": 0.0}
-    import sparc_quad.sim.bound_run as br
+    import sparc_quad.bound.run as br
 
     real = br.fall_reason
     try:

@@ -1,4 +1,4 @@
-"""A bound's loop with its control half in one compiled call per step (`sim.step_kernel`): what `run_bound`
+"""A bound's loop with its control half in one compiled call per step (`bound.step_kernel`): what `run_bound`
 runs when the run's per-step code is compiled and the step is the plain one (see `CompiledLoop.why_not`).
 
 Each step: the world's state packed into the kernel's input, the kernel (estimate, spine, legs, torque
@@ -13,7 +13,7 @@ import struct
 
 import numpy as np
 
-from sparc_quad.sim import step_kernel as sk
+from sparc_quad.bound import step_kernel as sk
 from sparc_quad.sim.bound_log import COLUMNS, DERIVED, LEG_JOINTS, LEGS
 from sparc_quad.sim.fall import FALL_REASONS
 
@@ -44,7 +44,7 @@ class CompiledLoop:
         return None
 
     def __init__(self, world, spine, gait) -> None:
-        from sparc_quad.sim.step_compiled import control_step
+        from sparc_quad.bound.step_compiled import control_step
 
         problem = self.why_not(world, spine, gait)
         if problem is not None:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sparc_quad.bound.backend import load_compiled, resolve_backend
 from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
@@ -23,7 +24,6 @@ from sparc_quad.jsonfmt import json_text
 from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, DERIVED, HEADER, LEGS
 from sparc_quad.sim.fall import FALL_REASONS, fall_code
-from sparc_quad.sim.loop_backend import load_compiled, resolve_backend
 from sparc_quad.sim.quadruped_world import HELD_STATE, QuadWorld, WorldConfig, make_world
 from sparc_quad.sim.sim_spine import DirectSpine, SimSpine
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
@@ -48,7 +48,7 @@ class BoundConfig:
     realtime: bool = False  # pace the loop to the wall clock (the robot's real-time mode)
     settle_s: float = 2.0  # metrics skip the start-up (stand, speed ramp) plus this
     # per-step code: numba (compiled spine step and bound controller) | python (the reference paths) |
-    # auto (numba for runs >= loop_backend.NUMBA_PAYBACK_SIM_S, where it pays for loading the kernels)
+    # auto (numba for runs >= backend.NUMBA_PAYBACK_SIM_S, where it pays for loading the kernels)
     backend: str = "auto"
 
 
@@ -155,7 +155,7 @@ def run_bound(
     CLI's Ctrl-C: the exception is raised in this loop, never inside an extension's call). `held_steps`
     False runs every step through the full path (the reference the held steps are tested against).
     `compiled_loop` False keeps a compiled run's steps in the Python loop (the reference of
-    `sim.compiled_loop`, which runs them otherwise where it can: `CompiledLoop.why_not`)."""
+    `bound.compiled_loop`, which runs them otherwise where it can: `CompiledLoop.why_not`)."""
     frames: list = []
     if video:
         on_frame, frame_every_s = (lambda w: frames.append(w.render())), 1.0 / VIDEO_FPS
@@ -224,7 +224,7 @@ def run_bound(
     # loop below: tests/sparc_quad/sim/test_compiled_loop.py)
     fast = None
     if compiled_loop and backend == "numba" and not (holds or latency or prof or frame_every or realtime):
-        from sparc_quad.sim.compiled_loop import CompiledLoop  # numba runs only (a short run's import cost)
+        from sparc_quad.bound.compiled_loop import CompiledLoop  # numba runs only (a short run's import cost)
 
         if CompiledLoop.why_not(world, spine, gait) is None:
             fast = CompiledLoop(world, spine, gait)

@@ -1,4 +1,4 @@
-"""The compiled control step of a bound: `sim.step_kernel.control_step` compiled once, cached on disk
+"""The compiled control step of a bound: `bound.step_kernel.control_step` compiled once, cached on disk
 (numba's cache next to step_kernel.py, or NUMBA_CACHE_DIR), with the spine kernel, the bound controller and
 the fall test it calls compiled into it."""
 
@@ -11,8 +11,9 @@ from numba.extending import register_jitable
 
 import sparc_quad.gaits.bound_compiled  # noqa: F401  (makes bound_kernel.leg_fk callable from compiled code)
 import spine_module.control.compiled  # noqa: F401  (likewise kernel.inertia_apply)
+from sparc_quad.bound import step_kernel
 from sparc_quad.gaits import bound_kernel
-from sparc_quad.sim import fall, step_kernel
+from sparc_quad.sim import fall
 from spine_module.control import kernel
 
 for _fn in (kernel.spine_step, bound_kernel.bound_step, fall.fall_code, step_kernel.estimate,

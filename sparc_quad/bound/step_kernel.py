@@ -1,5 +1,5 @@
 """The control half of one bound step, whole, as one function over flat arrays that numba compiles
-(`sim.step_compiled`; `sim.compiled_loop` drives it): the torso estimate, the spine law and the node's
+(`sim.step_compiled`; `bound.compiled_loop` drives it): the torso estimate, the spine law and the node's
 output stage, the bound controller, the torques in the engine's joint order, the log row and the fall check.
 
 Why: with both controllers compiled, the Python around them (estimator, wrappers, torque ordering, the

@@ -38,9 +38,6 @@ def load_compiled() -> None:
     held = {signal.SIGINT, signal.SIGTERM}
     old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if hasattr(signal, "pthread_sigmask") else None
     try:
-        import sparc_quad.gaits.bound_compiled
-        import sparc_quad.gaits.sine_compiled
-        import sparc_quad.sim.step_compiled  # noqa: F401
         import spine_module.control.compiled  # noqa: F401
     except Exception:  # ImportError or a numba failure: the controllers name it when they need it
         pass
