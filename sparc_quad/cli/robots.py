@@ -16,7 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "standing pose, defaults), exit 1 if any; check: exit 1 if a committed generated file "
                        "differs from its generator. generate: write the generated files (URDF, metadata, "
                        "MJCF) of every listed host. docs/hosts.md walks a new robot through.")
-    p.add_argument("action", choices=["list", "check", "generate"])
+    p.add_argument("action", choices=["list", "check", "generate"],
+                   help="list the hosts; check a host file (or the committed files); generate the files")
     p.add_argument("host_file", nargs="?", type=Path, default=None, metavar="HOST_TOML",
                    help="check: the host file to check (default: check the committed files)")
     p.add_argument("--dir", type=Path, default=ROBOTS_DIR, help="robots folder (default: %(default)s)")

@@ -15,6 +15,7 @@ from sparc_quad.cli.bound import GROUPS, option, scenario_from_args
 from sparc_quad.scenario import KEYS, Scenario, ScenarioError, bound_config, load_scenario, resolved, to_toml
 from sparc_quad.study.spec import SpecError, parse_spec
 from sparc_quad.study.trial import config_of, trial_scenario
+from tests.paths import ROOT
 
 # `bound` options that are not scenario keys: how and where a run executes and what it writes, never what
 # is simulated (each is tested where it acts: tests/sparc_quad/sim/test_quad_bound.py, test_held_steps.py)
@@ -39,6 +40,8 @@ def another_value(name: str, base: Scenario):
         return next(c for c in key.choices if c != now)
     if name == "direction":
         return -1.0 if now != -1.0 else 1.0
+    if name == "host_file":  # a listed host's own file, named as a user's
+        return str(ROOT / "robots" / "sparc_go1" / "host.toml")
     lo = key.lo if key.lo is not None else -1.0
     hi = key.hi if key.hi is not None else lo + 2.0
     for frac in (0.37, 0.61, 0.13):
