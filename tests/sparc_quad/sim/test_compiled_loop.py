@@ -12,9 +12,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from sparc_quad.bound import compiled_loop, step_kernel
 from sparc_quad.bound.run import BoundConfig, run_bound
 from sparc_quad.gaits.bound import BoundParams
-from sparc_quad.bound import compiled_loop, step_kernel
 from sparc_quad.sim.bound_log import COLUMNS
 from sparc_quad.sim.imu import ImuConfig
 from sparc_quad.sim.quadruped_world import Estimator, WorldConfig
