@@ -10,7 +10,7 @@ from pathlib import Path
 
 def cpu_model() -> str:
     """The CPU's model name (/proc/cpuinfo; else `platform.processor()`): the same code's ratios differ from
-    one host CPU to another (docs/results/2026-12-03-amd-host.md)."""
+    one host CPU to another (notebook/2026-12-03-amd-host.md)."""
     info = Path("/proc/cpuinfo")
     if info.exists():
         for line in info.read_text().splitlines():

@@ -11,7 +11,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = sorted([ROOT / "README.md", ROOT / "CHANGELOG.md", *(ROOT / "docs").rglob("*.md")])
+DOCS = sorted([ROOT / "README.md", ROOT / "CHANGELOG.md", *(ROOT / "docs").rglob("*.md"),
+               *(ROOT / "notebook").rglob("*.md")])
 FENCE = re.compile(r"^(```|~~~).*?^\1", re.M | re.S)
 INLINE_CODE = re.compile(r"`[^`\n]*`")
 LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
@@ -95,3 +96,13 @@ def test_the_checker_catches_a_moved_file(tmp_path):
     doc = tmp_path / "a.md"
     doc.write_text("`tests/test_here.py::test_x` and `tests/test_gone.py`; out/bench/x.json is not a path\n")
     assert stale_paths(doc, tmp_path) == ["tests/test_gone.py"]
+
+
+def test_the_notebook_index_lists_every_measurement():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("notebook_index", ROOT / "notebook" / "index.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert (ROOT / "notebook" / "README.md").read_text() == module.index_text(), \
+        "notebook/README.md is stale: run python notebook/index.py"

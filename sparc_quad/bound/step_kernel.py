@@ -4,7 +4,7 @@ output stage, the bound controller, the torques in the engine's joint order, the
 
 Why: with both controllers compiled, the Python around them (estimator, wrappers, torque ordering, the
 log row, the fall check) still cost ~40 us per 1 kHz step inside the loop, where pybullet's step takes
-~60 us (docs/results/2026-12-03-amd-host.md). Here that glue is one call.
+~60 us (notebook/2026-12-03-amd-host.md). Here that glue is one call.
 
 What it runs is the reference loop's arithmetic, operation for operation, on the same doubles:
 `Estimator.update` (base motion "fixed"), `DirectSpine.begin` on the compiled impedance law

@@ -2,7 +2,7 @@
 computes while running, in a form numba can compile (`sine_compiled`). It calls what the Python path
 calls, `foot_xz` (here) and `planar_leg_ik` (compiled with it), and clips with Python's min/max
 semantics, so the compiled step gives the same doubles for finite states: the open-loop bound's 20 s
-outcome flips on differences far smaller than a round-off (docs/results/2026-12-02-base-motion.md).
+outcome flips on differences far smaller than a round-off (notebook/2026-12-02-base-motion.md).
 
 legs (4, 8): per leg HL, HR, FL, FR: phase offset (rad), 1.0 for a right leg (its stride scale), HAA, HFE,
 KFE slots in jq / jdq, thigh (m), shank (m), knee sign. gains (9): kp (N*m/rad), kd (N*m*s/rad), HAA kp, HAA
