@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import argparse
+import difflib
 import numbers
 import re
 from collections.abc import Sequence
@@ -86,6 +87,31 @@ class Parser(argparse.ArgumentParser):
         if self.is_sub and extras:
             self.error(f"unrecognized arguments: {' '.join(extras)}")
         return ns, extras
+
+    def error(self, message: str):  # type: ignore[override]
+        """The error first, with a "did you mean" for a near miss, then one short usage line (argparse
+        prints the whole usage block first, which buries the one line that matters)."""
+        self.exit(2, f"{self.prog}: error: {message}{self.did_you_mean(message)}\n"
+                     f"usage: {self.prog} [options]  ({self.prog} --help lists every option with its unit "
+                     "and default)\n")
+
+    def did_you_mean(self, message: str) -> str:
+        """" (did you mean --kx?)" for an unknown option or choice close to a known one, else ""."""
+        words: list[str] = []
+        known: list[str] = []
+        if message.startswith("unrecognized arguments:"):
+            words = [w.split("=", 1)[0] for w in message.split(":", 1)[1].split() if w.startswith("-")]
+            known = list(self._option_string_actions)
+        else:
+            m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+            if m:
+                words = [m.group(1)]
+                known = [c.strip(" '") for c in m.group(2).split(",")]
+        for word in words:
+            near = difflib.get_close_matches(word, known, n=1, cutoff=0.6)
+            if near:
+                return f" (did you mean {near[0]}?)"
+        return ""
 
 
 class SubParser(Parser):

@@ -63,8 +63,18 @@ def test_typo_prints_the_subcommands_usage(argv, usage, capsys):
     with pytest.raises(SystemExit) as exc:
         main(argv)
     err = capsys.readouterr().err
-    assert exc.value.code == 2 and err.startswith(usage), err
-    assert "unrecognized arguments" in err
+    first, *rest = err.strip().splitlines()
+    assert exc.value.code == 2 and first.startswith(usage.removeprefix("usage: ")) and " error: " in first, err
+    assert "unrecognized arguments" in first and len(rest) == 1 and rest[0].startswith(usage), err
+
+
+def test_a_near_miss_is_named():
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "sparc_quad", "bound", "--kxx", "500"], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 2 and "(did you mean --kx?)" in r.stderr.splitlines()[0], r.stderr
 
 
 def test_negative_numbers_are_values(capsys):
