@@ -64,7 +64,8 @@ def test_typo_prints_the_subcommands_usage(argv, usage, capsys):
         main(argv)
     err = capsys.readouterr().err
     first, *rest = err.strip().splitlines()
-    assert exc.value.code == 2 and first.startswith(usage.removeprefix("usage: ")) and " error: " in first, err
+    assert exc.value.code == 2 and " error: " in first, err
+    assert first.startswith(usage.removeprefix("usage: ")), err
     assert "unrecognized arguments" in first and len(rest) == 1 and rest[0].startswith(usage), err
 
 
