@@ -9,6 +9,7 @@ import logging
 import math
 import signal
 import threading
+import warnings
 from pathlib import Path
 
 from sparc_quad.cli.args import (
@@ -303,8 +304,10 @@ def run(args: argparse.Namespace) -> int:
     old_handler = None if args.lcm else signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
     try:
         with atomic_dir(args.out) as tmp:  # --out keeps its previous result until this one is complete
-            result = api.run_bound(scenario, spine=spine, video=args.video, stop=stop.is_set,
-                                   realtime=args.realtime, backend=args.backend)
+            with warnings.catch_warnings():  # the short-window warning is printed once, below
+                warnings.filterwarnings("ignore", message="steady window", category=RuntimeWarning)
+                result = api.run_bound(scenario, spine=spine, video=args.video, stop=stop.is_set,
+                                       realtime=args.realtime, backend=args.backend)
             if stop.is_set():
                 raise KeyboardInterrupt
             paths = moved(api.write_outputs(result, tmp, plots=not args.no_plots), tmp, args.out)

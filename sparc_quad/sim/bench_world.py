@@ -20,11 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-import pybullet as p
 
 from sparc_quad.effects.plant import PlantEffects
 from sparc_quad.robots import spine_urdf_path
 from sparc_quad.sim.plant import PlantConfig
+from sparc_quad.sim.pybullet_quiet import pb as p
 from spine_module import params as P
 from spine_module.buses.base import MotorFeedback
 from spine_module.control.friction import StribeckFriction

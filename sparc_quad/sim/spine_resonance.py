@@ -22,8 +22,7 @@ def spine_natural_frequency_hz(k_x: float, k_z: float = float(P.K_DEFAULT[1]),
                                displacement_m: float = 0.01, duration_s: float = 2.0) -> float:
     """f_n (Hz) of the x mode for task stiffness (k_x N/m, k_z N/m, k_theta N*m/rad). NaN if no
     oscillation is seen (fewer than three zero crossings)."""
-    import pybullet as pb
-
+    from sparc_quad.sim.pybullet_quiet import pb
     from sparc_quad.sim.quadruped_world import QuadrupedWorld, WorldConfig
     from sparc_quad.sim.spine_drive import PassiveSpine, SpineGains
     from spine_module.model import SpineModel

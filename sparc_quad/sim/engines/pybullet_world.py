@@ -12,10 +12,10 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pybullet as pb
 import pybullet_data
 
 from sparc_quad.robots import ROBOTS_DIR
+from sparc_quad.sim.pybullet_quiet import pb
 from sparc_quad.sim.quadruped_world import (
     ABSENT,
     QuadWorld,
