@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 from pathlib import Path
@@ -39,6 +40,33 @@ def _scheduler(text: str) -> str:
     return text
 
 
+CONFIRM_HOURS = 2.0  # a study estimated longer than this asks for --yes
+# simulated s per CPU s of one trial, measured: 10 s bounds take 1.0-2.1 s of CPU on the 2-vCPU hosts here
+# (tests/integration/test_hosts_bound.py --durations); the slower engine and gait counted
+SIM_S_PER_CPU_S = 5.0
+
+
+def estimate_hours(spec_path: Path, trials: int, workers: int | None) -> float:
+    """Wall hours of `trials` trials of the spec's duration on `workers` processes (raibert-opt counts its
+    search's evaluations per cell)."""
+    import tomllib
+
+    from sparc_quad.study.executors import default_workers
+
+    data = tomllib.loads(Path(spec_path).read_text(encoding="utf-8"))
+    base = data.get("scenario", {})
+    durations = data.get("grid", {}).get("duration") or [base.get("duration", 10.0)]
+    duration = max(float(d) for d in durations if isinstance(d, int | float)) if durations else 10.0
+    per_trial = duration
+    if "raibert-opt" in (base.get("gait"), *data.get("grid", {}).get("gait", [])):
+        search = [base.get(k, d) for k, d in (("popsize", 6), ("iterations", 5), ("opt_restarts", 2),
+                                               ("opt_trial_seeds", 2), ("opt_duration", 6.0))]
+        if all(isinstance(v, int | float) for v in search):  # a grid over them: the study's own count
+            per_trial += math.prod(search)
+    cpu_s = trials * per_trial / SIM_S_PER_CPU_S
+    return cpu_s / max(1, workers or default_workers()) / 3600.0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "study",
@@ -69,6 +97,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="ADDRESS",
         help="run on an existing Dask distributed cluster, e.g. tcp://host:8786 (needs the [study] extra)",
     )
+    r.add_argument("--scheduler-timeout", type=in_range(1.0, 3600.0), default=30.0, metavar="S",
+                   help="--scheduler: give up (exit 2) when the scheduler has not answered within this "
+                        "many s")
+    r.add_argument("--yes", action="store_true",
+                   help=f"run a study estimated to take longer than {CONFIRM_HOURS:g} h without asking "
+                        "(the estimate is printed either way)")
     r.add_argument("--retry-failed", action="store_true", help="run again the trials recorded as failed")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--report", action="store_true", help="write the report when the run ends")
@@ -103,10 +137,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from sparc_quad.study.executors import ExecutorUnavailable
-    from sparc_quad.study.runner import run_study
+    from sparc_quad.study.runner import StudyWriteError, run_study
     from sparc_quad.study.spec import SpecError, load_spec
 
     try:
+        size = load_spec(args.spec, check=False).size()  # sized before it is built
+        hours = estimate_hours(args.spec, size, args.workers)
+        if hours > CONFIRM_HOURS and not args.yes:
+            raise BadInput(f"{size} trials, about {hours:.1f} h with {args.workers or 'one worker per core'} "
+                           f"(at {SIM_S_PER_CPU_S:g} simulated s per CPU s); add --yes to run it")
+        if hours > 0.1:
+            print(f"{size} trials, about {hours:.1f} h", file=sys.stderr)
         spec = load_spec(args.spec)
     except SpecError as exc:
         raise BadInput(str(exc)) from exc
@@ -130,9 +171,14 @@ def run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             retry_failed=args.retry_failed,
             progress=not args.no_progress,
+            scheduler_timeout_s=args.scheduler_timeout,
         )
     except ExecutorUnavailable as exc:
         raise BadInput(str(exc)) from exc
+    except StudyWriteError as exc:
+        print(f"sparc-quad study run: error: {exc.strerror}; the finished records are whole, rerun to "
+              "resume", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(
             f"interrupted; finished trials are kept in {args.out}/trials (rerun to resume)", file=sys.stderr

@@ -100,38 +100,85 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+IN_FLIGHT_PER_WORKER = 2  # trials submitted ahead of the workers: keeps them busy, never the whole grid
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the workers now: a trial in progress is lost (its record is
+    never half-written), a Ctrl-C does not wait minutes for it."""
+    procs = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        proc.terminate()
+    for proc in procs:
+        proc.join(timeout=5.0)
+
+
 def run_local(jobs: list[tuple[dict, str, str]], workers: int) -> Iterator[dict]:
     """Run `jobs` (config, version, hash) on `workers` spawned processes; yield records as they finish.
-    Closing the generator (Ctrl-C) cancels what has not started."""
+
+    At most IN_FLIGHT_PER_WORKER x workers trials are submitted at a time and the wait is a short poll: a
+    Ctrl-C during `concurrent.futures.wait` over a whole grid's futures could leave their locks held and
+    deadlock the pool's shutdown (seen with 100 000 trials). Closing the generator (Ctrl-C) or an error
+    ends the workers at once."""
     ctx = multiprocessing.get_context("spawn")
     with _blas_env():
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+    pending: dict = {}
+    queue = iter(jobs)
+    limit = IN_FLIGHT_PER_WORKER * workers
     try:
-        pending = {pool.submit(execute, *job): job for job in jobs}
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        while True:
+            while len(pending) < limit:
+                job = next(queue, None)
+                if job is None:
+                    break
+                pending[pool.submit(execute, *job)] = job
+            if not pending:
+                break
+            done, _ = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
             for fut in done:
                 cfg, version, h = pending.pop(fut)
                 try:
-                    yield fut.result()
+                    rec = fut.result()
                 except Exception as exc:  # the worker process died (e.g. killed, out of memory)
-                    yield {
-                        "hash": h,
-                        "config": cfg,
-                        "code_version": version,
-                        "status": "failed",
-                        "error": f"worker lost: {type(exc).__name__}: {exc}",
-                        "metrics": None,
-                        "wall_s": None,
-                    }
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+                    rec = {"hash": h, "config": cfg, "code_version": version, "status": "failed",
+                           "error": f"worker lost: {type(exc).__name__}: {exc}", "metrics": None,
+                           "wall_s": None}
+                yield rec
+    except BaseException:  # GeneratorExit (the caller stopped: Ctrl-C), KeyboardInterrupt, an error
+        _stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
 
 
 def run_inline(jobs: list[tuple[dict, str, str]]) -> Iterator[dict]:
     """Run `jobs` one after another in this process (debugging, tests)."""
     for job in jobs:
         yield execute(*job)
+
+
+def _connect(client_class, address: str, timeout_s: float):
+    """A Dask client, or ExecutorUnavailable when the scheduler refuses the connection or does not answer
+    within `timeout_s` (a listener that accepts and stays silent kept `Client` waiting for minutes)."""
+    box: dict = {}
+
+    def connect() -> None:
+        try:
+            box["client"] = client_class(address, timeout=timeout_s)
+        except BaseException as exc:
+            box["error"] = exc
+
+    thread = threading.Thread(target=connect, daemon=True, name="dask-connect")
+    thread.start()
+    thread.join(timeout_s + 5.0)
+    if thread.is_alive():
+        raise ExecutorUnavailable(f"--scheduler {address}: no answer within {timeout_s + 5.0:g} s (is it a "
+                                  "Dask scheduler?)")
+    if "error" in box:
+        exc = box["error"]
+        raise ExecutorUnavailable(f"--scheduler {address}: cannot connect ({type(exc).__name__}: {exc})")
+    return box["client"]
 
 
 def run_dask(
@@ -144,10 +191,7 @@ def run_dask(
         raise ExecutorUnavailable(
             "--scheduler needs Dask distributed: pip install 'sparc-quad[study]'"
         ) from None
-    try:
-        client = Client(address, timeout=connect_timeout_s)
-    except (OSError, TimeoutError) as exc:
-        raise ExecutorUnavailable(f"--scheduler {address}: cannot connect ({exc})") from None
+    client = _connect(Client, address, connect_timeout_s)
     try:
         futures = {}
         for cfg, version, h in jobs:

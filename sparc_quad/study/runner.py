@@ -29,6 +29,11 @@ from sparc_quad.study.spec import Spec
 log = logging.getLogger(__name__)
 
 
+class StudyWriteError(OSError):
+    """A record or table that could not be written (a full disk, a folder that went away): one line naming
+    the path; the records already written stay whole."""
+
+
 @dataclass
 class RunSummary:
     trials: int = 0
@@ -53,6 +58,7 @@ def run_study(
     scheduler: str | None = None,
     retry_failed: bool = False,
     progress: bool = True,
+    scheduler_timeout_s: float = 30.0,
 ) -> RunSummary:
     """Execute the missing trials of `spec` into `out`; always leaves trials.csv and summary.json
     consistent with the records on disk (also after Ctrl-C, which re-raises KeyboardInterrupt)."""
@@ -80,7 +86,7 @@ def run_study(
     if not todo:
         stream = iter(())
     elif scheduler:
-        stream = executors.run_dask(todo, scheduler)
+        stream = executors.run_dask(todo, scheduler, connect_timeout_s=scheduler_timeout_s)
     elif workers == 0:
         stream = executors.run_inline(todo)
     else:
@@ -93,7 +99,11 @@ def run_study(
         bar = tqdm(total=len(todo), unit="trial", desc=spec.name, mininterval=2.0, smoothing=0.1)
     try:
         for rec in stream:
-            write_record(trials_dir, rec)
+            try:
+                write_record(trials_dir, rec)
+            except OSError as exc:
+                raise StudyWriteError(exc.errno, f"cannot write a record in {trials_dir} "
+                                                 f"({exc.strerror or exc})") from None
             records[rec["hash"]] = rec
             summary.executed += 1
             if rec["status"] != "ok":
@@ -113,15 +123,20 @@ def run_study(
             bar.close()
         summary.wall_s = time.perf_counter() - t0
         summary.failed = sum(1 for r in records.values() if r["status"] != "ok")
-        finish(
-            out,
-            spec,
-            version,
-            summary,
-            [records[h] for _, h in planned if h in records],
-            workers=None if scheduler else (executors.default_workers() if workers is None else workers),
-            scheduler=scheduler,
-        )
+        try:
+            finish(
+                out,
+                spec,
+                version,
+                summary,
+                [records[h] for _, h in planned if h in records],
+                workers=None if scheduler else (executors.default_workers() if workers is None
+                                                else workers),
+                scheduler=scheduler,
+            )
+        except OSError as exc:  # the tables are rewritten from the records by the next run
+            raise StudyWriteError(exc.errno, f"cannot write the tables in {out} ({exc.strerror or exc})") \
+                from None
     return summary
 
 
