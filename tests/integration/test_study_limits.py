@@ -40,7 +40,8 @@ def _large_spec(tmp_path, cells: int = 400) -> str:
 def test_ctrl_c_of_a_large_study_exits_130_with_whole_records(tmp_path):
     """20 000 trials on two workers: SIGINT once records are being written (the event: a record file)."""
     out = tmp_path / "out"
-    argv = ["study", "run", _large_spec(tmp_path), "--out", str(out), "--workers", "2", "--no-progress", "--yes"]
+    argv = ["study", "run", _large_spec(tmp_path), "--out", str(out), "--workers", "2", "--no-progress",
+            "--yes"]
     proc = subprocess.Popen([sys.executable, "-m", "sparc_quad", *argv], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 300
