@@ -35,7 +35,7 @@ from sparc_quad.cli.signals import stop_on_signals
 from sparc_quad.jsonfmt import json_text
 from spine_module import params as P
 from spine_module.buses import registry
-from spine_module.buses.base import MotorBusError
+from spine_module.buses.base import MotorBusError, MotorSetupError
 from spine_module.messages import channels
 from spine_module.safety import SafetyConfig
 
@@ -166,6 +166,8 @@ def run(args: argparse.Namespace) -> int:
         log.error("motor bus start-up failed: %s", exc)
         bus.shutdown()
         io.close()
+        if isinstance(exc, MotorSetupError):  # the robot as wired cannot run (two motors on one id): exit 2
+            raise BadInput(f"motor bus start-up refused: {exc}") from exc
         return 1
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM while starting: the motors enabled so far are stopped
         bus.shutdown()

@@ -223,8 +223,9 @@ class SpineNode:
             sv.enable
         mode = MODES[mode_i]
         # fault bits as a plain int inside the tick (IntFlag arithmetic costs ~1 us per operation)
-        if self._pending_bus_fault:
-            faults |= self._pending_bus_fault
+        bus_fault = self._pending_bus_fault  # the bus refused this tick's feedback: zero torque this tick
+        if bus_fault:
+            faults |= bus_fault
             self._pending_bus_fault = 0
         if self._bad_until:
             for bit, until in self._bad_until.items():
@@ -265,7 +266,7 @@ class SpineNode:
                 faults |= _JOINT_LIMIT
             if clamped:
                 faults |= _TORQUE_CLAMPED
-            tau = np.array((a, b, c)) if enable else np.zeros(3)
+            tau = np.array((a, b, c)) if enable and not bus_fault else np.zeros(3)
         else:
             tau = np.zeros(3)
         if x is None:

@@ -35,10 +35,11 @@ from pathlib import Path
 import can
 import numpy as np
 
-from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
+from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback, MotorSetupError
 from spine_module.buses.cybergear import protocol as P
 from spine_module.buses.cybergear.busload import bus_load
 from spine_module.buses.cybergear.config import CyberGearConfig, load_config
+from spine_module.buses.cybergear.plausibility import DEFAULT_LIMITS, PlausibilityLimits, Reading, implausible
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +65,10 @@ class _JointState:
     stamp_s: float = 0.0
     frames: int = 0
     fresh: bool = False
-    uid: bytes | None = None
+    uid: bytes | None = None  # MCU uid of the first get-id reply since start()
+    uids: set[bytes] = field(default_factory=set)  # every uid that answered as this id since start()
+    reading: Reading | None = None  # last plausible feedback (plausibility.py)
+    implausible: bool = False  # a plausibility fault is latched for this motor (one message, not one a frame)
     unanswered_since: float | None = None  # monotonic time of the oldest command without a reply
     run_seen: bool = False  # reported RUN since the last enable
     params: dict[int, tuple[bool, float | int]] = field(default_factory=dict)  # index -> (ok, value) read
@@ -91,7 +95,8 @@ class CanMotorBus(MotorBus):
                  interface: str | None = None, channel: str | None = None, bitrate: int | None = None,
                  log_path: str | Path | None = None, fault_raises: bool = True,
                  clock: Callable[[], float] = time.monotonic,
-                 stamp_clock: Callable[[], float] | None = None, hold_max_s: float = HOLD_MAX_S) -> None:
+                 stamp_clock: Callable[[], float] | None = None, hold_max_s: float = HOLD_MAX_S,
+                 plausibility: PlausibilityLimits = DEFAULT_LIMITS) -> None:
         if config is None or isinstance(config, (str, Path)):
             config = load_config(config)
         self.config = config
@@ -101,6 +106,7 @@ class CanMotorBus(MotorBus):
         self._clock = clock  # timeouts
         self._stamp_clock = stamp_clock or clock  # MotorFeedback.stamp_s (a simulation may supply its time)
         self.fault_raises = fault_raises
+        self.plausibility = plausibility
         self._own_bus = bus is None
         if bus is None:
             if interface is None or channel is None:
@@ -168,11 +174,22 @@ class CanMotorBus(MotorBus):
                 return
             s, j = self._state[i], self.config.joints[i]
             if isinstance(frame, P.Feedback):
-                s.q = j.q_from_motor(frame.position)
-                s.dq = j.dq_from_motor(frame.velocity)
-                s.tau = j.tau_from_motor(frame.torque)
+                q, dq, tau, stamp = (j.q_from_motor(frame.position), j.dq_from_motor(frame.velocity),
+                                     j.tau_from_motor(frame.torque), self._stamp_clock())
+                if self._started and self.fault_raises:
+                    why = implausible(j.name, j.gear_ratio, self.config.limit_torque_nm, s.reading, q, dq,
+                                      tau, stamp, frame.velocity, self.plausibility)
+                    if why is not None:  # never handed to the node: the last plausible reading stays
+                        if not s.implausible:
+                            s.implausible = True
+                            self._fault(f"implausible feedback from motor {j.name} (CAN id {j.can_id}): "
+                                        f"{why}")
+                        self._cond.notify_all()
+                        return
+                s.q, s.dq, s.tau = q, dq, tau
+                s.reading = Reading(q, dq, stamp)
                 s.temperature_c, s.mode, s.fault_bits = frame.temperature_c, frame.mode, frame.fault_bits
-                s.stamp_s, s.fresh, s.unanswered_since = self._stamp_clock(), True, None
+                s.stamp_s, s.fresh, s.unanswered_since = stamp, True, None
                 s.frames += 1
                 if frame.fault_bits and self.fault_raises and self._started:
                     self._fault(f"motor {j.name} (CAN id {j.can_id}) reports "
@@ -190,7 +207,13 @@ class CanMotorBus(MotorBus):
                 elif frame.warning_value:
                     log.warning("motor %s warning %#x", j.name, frame.warning_value)
             elif isinstance(frame, P.DeviceId):
-                s.uid = frame.uid
+                if s.uid is None:
+                    s.uid = frame.uid
+                elif frame.uid != s.uid and frame.uid not in s.uids and self._started:
+                    self._fault(f"motor {j.name} (CAN id {j.can_id}): a get-id reply from MCU uid "
+                                f"{frame.uid.hex()}, not the handshake's {s.uid.hex()}: two motors answer "
+                                "as one id")
+                s.uids.add(frame.uid)
             elif isinstance(frame, P.ParamReadReply):
                 s.params[frame.index] = (frame.ok, frame.value)
             self._cond.notify_all()
@@ -341,9 +364,9 @@ class CanMotorBus(MotorBus):
                 now = self._clock()
                 if self._started:
                     silent = self._silent(now)
-                    if silent:
-                        self.last_error = f"motor(s) stopped answering: {', '.join(silent)}"
-                        raise MotorBusError(self.last_error)
+                    if silent:  # latched: a motor that answers again is not driven until start()
+                        self._fault(f"motor(s) stopped answering: {', '.join(silent)}")
+                        self._raise_pending()
                 if deadline is not None and now >= deadline:
                     return None
                 wait = 0.01 if deadline is None else min(0.01, deadline - now)
@@ -387,6 +410,7 @@ class CanMotorBus(MotorBus):
                 self._errors.clear()
                 for s in self._state:
                     s.uid, s.fault_value, s.warning_value = None, 0, 0
+                    s.uids, s.reading, s.implausible = set(), None, False
             for j in cfg.joints:
                 self._send(P.encode_get_id(j.can_id, host))
             missing = self._wait_all(lambda s: s.uid is not None, timeout_s)
@@ -419,6 +443,7 @@ class CanMotorBus(MotorBus):
                 raise MotorBusError(f"motor(s) {', '.join(missing)} did not enable within {timeout_s:g} s"
                                     + (f" ({'; '.join(why)})" if why else ""))
             with self._cond:
+                self._refuse_doubles_and_strays()
                 self._errors.clear()
                 for s in self._state:
                     s.unanswered_since = None
@@ -427,6 +452,23 @@ class CanMotorBus(MotorBus):
         except BaseException:
             self.stop()
             raise
+
+    def _refuse_doubles_and_strays(self) -> None:  # caller holds the lock
+        """End of the handshake: two MCU uids answering as one id (MotorSetupError: fix the wiring, exit
+        2), or a motor whose first feedback is already implausible (outside its joint's range)."""
+        doubled = [f"CAN id {j.can_id} ({j.name}): MCU uids {', '.join(sorted(u.hex() for u in s.uids))}"
+                   for s, j in zip(self._state, self.config.joints, strict=True) if len(s.uids) > 1]
+        if doubled:
+            raise MotorSetupError(f"two motors answer as one id: {'; '.join(doubled)}. Give each motor its "
+                                  "own id (sparc-quad motors set-id) before running")
+        bad = []
+        for s, j in zip(self._state, self.config.joints, strict=True):
+            why = implausible(j.name, j.gear_ratio, self.config.limit_torque_nm, None, s.q, s.dq, s.tau,
+                              s.stamp_s, j.dq_to_motor(s.dq), self.plausibility)
+            if why is not None:
+                bad.append(f"{j.name} (CAN id {j.can_id}): {why}")
+        if bad:
+            raise MotorBusError(f"implausible feedback at start-up: {'; '.join(bad)}")
 
     # --- from enable to the first command ------------------------------------------------------------
     def _zero_frames(self) -> list[can.Message]:
