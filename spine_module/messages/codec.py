@@ -89,11 +89,14 @@ _NOT_NEGATIVE = Range(0.0, math.inf, reason="{v} is negative")
 HEADER_RANGES = {"seq": _NOT_NEGATIVE, "utime": _NOT_NEGATIVE}  # seq is checked (and named) first
 MODE_RANGE = Range(0.0, float(len(MODES) - 1), reason=f"{{v}} is not a mode (0..{max(Mode)})")  # MODES[v]
 MOTOR_MODE_RANGE = Range(0.0, 2.0, reason="{v} is not a motor mode (0 reset, 1 cal, 2 run)")
+QUAT_NORM_MIN, QUAT_NORM_MAX = 0.9, 1.1  # torso quaternion: renormalised within these norms, else refused
 TORSO_RANGES = {
     "q1": Range(-_PI, _PI, "rad"),
     "dq1": Range(-50.0, 50.0, "rad/s"),
     "ddq1": Range(-5000.0, 5000.0, "rad/s^2"),
-    "quat": Range(-1.0 - 1e-6, 1.0 + 1e-6, ""),
+    # no element of a quaternion whose norm is within 10 % of 1 exceeds 1.1; the norm itself is checked by
+    # the decoders (`_not_unit`), the same at every orientation
+    "quat": Range(-QUAT_NORM_MAX, QUAT_NORM_MAX, ""),
     "omega": Range(-50.0, 50.0, "rad/s"),
     "base_accel": Range(-500.0, 500.0, "m/s^2"),  # 50 g: beyond any landing of a legged robot
 }
@@ -315,7 +318,7 @@ def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState
     a = _T_QUAT
     w, x, y, z = vals[a:a + 4]
     norm = math.sqrt(w * w + x * x + y * y + z * z)
-    if not 0.9 <= norm <= 1.1:
+    if not QUAT_NORM_MIN <= norm <= QUAT_NORM_MAX:
         raise _not_unit(channel, norm)
     quat = v[a:a + 4]
     if norm != 1.0:  # x / 1.0 is x: a unit quaternion as sent is kept as it is
@@ -332,7 +335,7 @@ def decode_torso_checked(data: bytes, channel: str = channels.TORSO_STATE) -> To
     v = _TORSO_BOUNDS[bool(m.ddq1_valid) + 2 * base_valid].check_message(channel, m)
     w, x, y, z = m.quat
     norm = math.sqrt(w * w + x * x + y * y + z * z)
-    if not 0.9 <= norm <= 1.1:
+    if not QUAT_NORM_MIN <= norm <= QUAT_NORM_MAX:
         raise _not_unit(channel, norm)
     quat = v[_T_QUAT:_T_QUAT + 4]
     quat /= norm
