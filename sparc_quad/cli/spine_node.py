@@ -41,6 +41,8 @@ from spine_module.safety import SafetyConfig
 
 log = logging.getLogger("sparc_quad.cli.spine_node")
 
+# exit codes besides the CLI's (0 done or SIGTERM, 1 failed, 2 bad input, 130 Ctrl-C; docs/cli.md)
+EXIT_LATCHED = 3  # the run ended with a fault latched (node or motor bus), whatever stopped it
 SOFT_START_MAX_S = 10.0  # a longer ramp leaves the spine soft for most of a run: a typo, not a setting
 
 
@@ -109,8 +111,8 @@ def _node_config(args: argparse.Namespace):
 
 def _bus_options(args: argparse.Namespace) -> dict[str, object]:
     """The chosen backend's options as keyword arguments (see spine_module.buses.registry)."""
-    if args.motors == "can":
-        return can_options(args)
+    if args.motors == "can":  # the config's timeouts are judged at the node's own rate
+        return {**can_options(args), "rate_hz": args.rate}
     if args.motors == "lcm":
         return {"url": args.lcm_url, "spin_s": args.spin_us * 1e-6 if args.clock == "lockstep" else 0.0}
     return {}
@@ -196,6 +198,8 @@ def run(args: argparse.Namespace) -> int:
                # messages superseded by a newer one before the node looked (a flood shows here)
                "dropped": {**io.inbox.dropped, **({"SPARC_MOTOR_FEEDBACK": bus.dropped}
                                                   if hasattr(bus, "dropped") else {})}}
+    latched = _latched(node, summary["bus_faults"])
+    summary["ended_latched"] = latched
     print(json_text(summary))
     if args.summary is not None:
         try:
@@ -203,7 +207,20 @@ def run(args: argparse.Namespace) -> int:
             args.summary.write_text(json_text(summary, indent=2))
         except OSError as exc:  # checked at start; it changed during the run (the summary is printed above)
             raise BadInput(f"--summary {args.summary}: {exc.strerror or exc}") from exc
+    if latched:
+        log.error("spine-node: the run ended with a latched fault: %s", latched)
+        return EXIT_LATCHED
     return stop.exit_code()
+
+
+def _latched(node, bus_faults: list[str]) -> str:
+    """What was latched when the run ended (empty: nothing): the node's latches other than a commanded
+    E-stop, and the motor backend's bus faults. Such a run is not a success, whatever stopped it."""
+    from spine_module.messages import Fault
+
+    bits = node.safety.latched & ~Fault.ESTOP
+    parts = [bits.name] if bits else []
+    return "; ".join(parts + list(bus_faults))
 
 
 def _run_inprocess(args: argparse.Namespace) -> int:
