@@ -49,6 +49,11 @@ _FOREIGN = {ch: codec.FingerprintError(ch, "", f"not a {codec.type_name(codec.TY
 MAX_MESSAGES_PER_POLL = 128
 POLL_BUDGET_S = 0.0005
 QUEUE_CAPACITY = 128
+# After a stall (a tick gap longer than an input's deadline) or before the first tick, everything queued is
+# from before: `drain` dispatches it all (newest per channel wins, the rest counted in `dropped`), bounded so
+# a flood cannot hold the node in it; the node treats what it drained as old (runner, `_receipt_time`).
+DRAIN_MAX_MESSAGES = 20_000
+DRAIN_BUDGET_S = 0.02
 
 
 class Inbox:
@@ -124,6 +129,12 @@ class NodeIO:
 
     def poll(self) -> None:
         """Move everything that has arrived into the inbox without blocking."""
+
+    def drain(self) -> int:
+        """Dispatch everything queued (DRAIN_MAX_MESSAGES, DRAIN_BUDGET_S at most); returns how many.
+        In-process delivery is synchronous: nothing is queued."""
+        self.poll()
+        return 0
 
     def await_torso(self, seq: int, timeout_s: float) -> bool:
         """Whether the inbox holds a torso state of tick `seq` or later, waiting up to `timeout_s` for it
@@ -218,6 +229,17 @@ class LcmNodeIO(NodeIO):
             if time.perf_counter() >= deadline:
                 break
         self.handled_last_poll = n
+
+    def drain(self) -> int:
+        """Dispatch everything that waited in LCM's queues (see DRAIN_MAX_MESSAGES, DRAIN_BUDGET_S)."""
+        deadline = time.perf_counter() + DRAIN_BUDGET_S
+        n = 0
+        while n < DRAIN_MAX_MESSAGES and self.lc.handle_timeout(0) > 0:
+            n += 1
+            if time.perf_counter() >= deadline:
+                break
+        self.handled_last_poll = n
+        return n
 
     def await_torso(self, seq: int, timeout_s: float) -> bool:
         """LCM keeps the order of one socket only: with `mpudpm` (a socket per channel) a tick's motor

@@ -124,6 +124,9 @@ class SpineNode:
         self._set_ctrl: object | None = None  # controller whose gains and target were last set, and from what
         self._set_for: tuple = ()
         self._limits = safety.TorqueLimits.from_config(self.cfg.safety)  # the output stage's numbers
+        self._polled_at: float | None = None  # node time the inputs were last polled (tick or start-up drain)
+        self.stalls = 0  # ticks after a gap longer than the feedback deadline (their inputs drained, stale)
+        self.drained_at_start = 0  # inputs queued before the first tick, dropped unused
 
     @property
     def safety(self) -> safety.SafetyState:
@@ -185,6 +188,44 @@ class SpineNode:
     def _flag_bad(self, bit: Fault | int, now: float) -> None:
         self._bad_until[int(bit)] = now + self.cfg.bad_hold_s
 
+    def drain_inputs(self, now: float) -> int:
+        """Before the first real-time tick: drop everything queued since the transport opened (torso states,
+        commands and feedback up to seconds old at start-up); the node then hears only what arrives from
+        `now` on. Returns how many messages were dropped (also in `drained_at_start`)."""
+        io = self.io
+        n = io.drain()
+        torso, command, heartbeat, _, _ = io.inbox.take()
+        n_taken = (torso is not None) + (command is not None) + (heartbeat is not None)
+        while True:  # newest-wins buses keep one feedback; a queue (LCM) may hold many
+            try:
+                fb = self.bus.receive(0.0)
+            except MotorBusError:
+                break
+            if fb is None:
+                break
+            n_taken += 1
+        self._polled_at = now
+        self.drained_at_start += max(n, n_taken)
+        return max(n, n_taken)
+
+    def _receipts_at(self, now: float) -> tuple[float, float]:
+        """Poll the inputs; returns (now, the start of the gap since the last poll). After a gap longer than
+        the feedback deadline (a stalled node, a late tick) everything queued is drained and an input taken
+        now may have waited the whole gap: it counts as arrived at the gap's start, so an input whose
+        deadline is shorter than the gap raises its stale fault this tick instead of being used as fresh."""
+        prev = self._polled_at
+        self._polled_at = now
+        if prev is None or now - prev - safety.EPS_S <= self.cfg.safety.feedback_deadline_s:
+            self.io.poll()
+            return now, now
+        self.io.drain()
+        self.stalls += 1
+        return now, prev
+
+    @staticmethod
+    def _arrived(now: float, gap_start: float, deadline_s: float) -> float:
+        return now if now - gap_start - safety.EPS_S <= deadline_s else gap_start
+
     # --- one tick -----------------------------------------------------------------------------------
     def tick(self, now: float, feedback: MotorFeedback | None, wall_s: float | None = None) -> SpineState:
         """Run one control step at node time `now` with the feedback received for it (None: none new).
@@ -195,10 +236,12 @@ class SpineNode:
         stats.mark(time.monotonic() if wall_s is None else wall_s)
         self.last_now = now
         cfg = self.cfg
-        if feedback is not None:
-            self._accept_feedback(feedback, now)
+        scfg = cfg.safety
         io = self.io
-        io.poll()
+        now, gap_start = self._receipts_at(now)
+        arrived = self._arrived
+        if feedback is not None:
+            self._accept_feedback(feedback, arrived(now, gap_start, scfg.feedback_deadline_s))
         torso, command, heartbeat, reset, rejects = io.inbox.take()
         for rej in rejects:
             self._flag_bad(_BAD_BY_CHANNEL.get(rej.channel, _BAD_COMMAND), now)
@@ -207,12 +250,12 @@ class SpineNode:
             self._ratelog(f"reject:{rej.channel}.{rej.field}", now, logging.WARNING, "rejected %s", rej)
         if torso is not None:
             self.torso = torso
-            self._rx_torso = now
+            self._rx_torso = arrived(now, gap_start, scfg.torso_deadline_s)
         if command is not None:
             self.command = command
-            self._rx_command = now
+            self._rx_command = arrived(now, gap_start, scfg.command_deadline_s)
         if heartbeat is not None:
-            self._rx_heartbeat = now
+            self._rx_heartbeat = arrived(now, gap_start, scfg.heartbeat_deadline_s)
 
         command = self.command
         requested = command.mode if command is not None else _MODE_DISABLED
@@ -251,6 +294,10 @@ class SpineNode:
             if not ok:
                 faults |= _CONTROLLER
                 limited = False
+            elif scale == 0.0:  # the first tick of a soft start (start-up, after a latch or a stale spell)
+                # commands zero torque, gravity and feed-forward included; K and D then ramp from 0. (Ramping
+                # the whole law instead let the bench spine sag and whip to 30 rad/s over CAN: not done.)
+                tau_l = [0.0, 0.0, 0.0]
         else:
             if fb is not None and math.isfinite(q1) and math.isfinite(dq1):
                 x, dx = self.ctrl.task_state(q, dq)
@@ -497,6 +544,7 @@ def run_realtime(node: SpineNode, duration_s: float | None = None,
     """Fixed-rate loop at `node.cfg.rate_hz` on the monotonic clock: each tick drains the bus (newest
     feedback wins), then steps. Stops after `duration_s` or when `stop` is set."""
     stopped = _stopper(stop)
+    node.drain_inputs(0.0)  # what queued before the loop starts is old: dropped, counted; node time 0 = now
     clock = RealTimeClock(node.cfg.rate_hz)
     t_wall0 = time.monotonic()
     ticks = 0
