@@ -12,6 +12,7 @@ import argparse
 import contextlib
 import logging
 import signal
+import threading
 from collections.abc import Iterator
 
 from sparc_quad.cli.args import (
@@ -31,7 +32,7 @@ from sparc_quad.cli.args import (
 )
 from sparc_quad.cli.errors import BadInput
 from sparc_quad.cli.experiment import add_experiment_args, plant, script
-from sparc_quad.cli.signals import stop_on_signals
+from sparc_quad.cli.signals import Stop
 from sparc_quad.jsonfmt import json_text
 from spine_module import params as P
 from spine_module.buses import registry
@@ -87,18 +88,56 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-@contextlib.contextmanager
-def _terminate_raises() -> Iterator[None]:
-    """SIGTERM as KeyboardInterrupt for the block: the bus start-up (handshakes, waits) is left through
-    the same clean-up as Ctrl-C instead of the process dying with motors enabled."""
-    def interrupt(signum, frame):
-        raise KeyboardInterrupt
+class _Stopped(Exception):
+    """A signal arrived during start-up: leave through the clean-up, exit as the signal asks."""
 
-    old = signal.signal(signal.SIGTERM, interrupt)
+
+# Ctrl-C before `run` installs its handler (while the CLI imports pinocchio, numba, lcm: up to ~1 s) is a
+# KeyboardInterrupt raised wherever the interpreter is, and an extension's import can swallow it (issue 31:
+# a node signalled 0.3 s after spawn kept running). The signal is also recorded here, as the default handler
+# would raise it, so `run` ends at once whatever became of the exception.
+_EARLY_SIGNALS: list[int] = []
+
+
+def _record_and_interrupt(signum: int, frame: object) -> None:
+    _EARLY_SIGNALS.append(signum)
+    raise KeyboardInterrupt
+
+
+if (threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+    signal.signal(signal.SIGINT, _record_and_interrupt)
+
+
+@contextlib.contextmanager
+def _node_signals() -> Iterator[tuple[Stop, list[bool]]]:
+    """SIGINT/SIGTERM for the whole command, from its first line: recorded in a Stop event that every start-up
+    step and the loop check; raised as KeyboardInterrupt only while `raising[0]` is True (the motor
+    handshake's waits), never inside an extension's start-up code that might swallow it."""
+    stop = Stop()
+    raising = [False]
+    if _EARLY_SIGNALS:
+        stop.signum = _EARLY_SIGNALS[0]
+        stop.set()
+
+    def handler(signum, frame) -> None:
+        if stop.signum is None:
+            stop.signum = signum
+        stop.set()
+        if raising[0]:
+            raise KeyboardInterrupt
+
+    old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        yield
+        yield stop, raising
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for sig, h in old.items():
+            signal.signal(sig, h)
+
+
+def _check(stop: Stop) -> None:
+    if stop.is_set():
+        raise _Stopped
 
 
 def _node_config(args: argparse.Namespace):
@@ -136,10 +175,22 @@ def _make_bus(args: argparse.Namespace, lc):
 
 
 def run(args: argparse.Namespace) -> int:
+    with _node_signals() as (stop, raising):
+        try:
+            return _run(args, stop, raising)
+        except (_Stopped, KeyboardInterrupt):  # a signal during start-up (or the in-process run): what was
+            # opened is closed (motors stopped), then exit as the signal asks
+            log.info("spine-node: stopped by signal %s", stop.signum)
+            return stop.exit_code() if stop.is_set() else 130
+
+
+def _run(args: argparse.Namespace, stop: Stop, raising: list[bool]) -> int:
+    _check(stop)
     import lcm
 
     from spine_module.node import Controllers, LcmNodeIO, SpineNode, realtime, run_lockstep, run_realtime
 
+    _check(stop)
     try:
         rt_done = realtime.apply(realtime.RtOptions(cpu=args.cpu, rt_priority=args.rt_priority,
                                                     lock_memory=args.lock_memory,
@@ -148,7 +199,9 @@ def run(args: argparse.Namespace) -> int:
             log.log(logging.WARNING if " not " in line else logging.INFO, "spine-node: %s", line)
     except realtime.RtSetupError as exc:
         raise BadInput(str(exc)) from exc
-    if args.motors == "inprocess":
+    _check(stop)
+    if args.motors == "inprocess":  # a simulation in this thread: a signal interrupts it where it is
+        raising[0] = True
         return _run_inprocess(args)
     try:
         lc = lcm.LCM(args.lcm_url)
@@ -157,13 +210,20 @@ def run(args: argparse.Namespace) -> int:
                        f"{exc}") from exc
     bus = _make_bus(args, lc)
     io = LcmNodeIO(lc)
-    node = SpineNode(Controllers.default(), bus, io, _node_config(args))
-    # before start(): a full collection holds the interpreter for tens of ms, during which nothing could
-    # feed the motors that start() enabled (their CAN timeout is 50 ms)
-    rt_done.append(realtime.freeze_startup_objects())
     try:
-        with _terminate_raises():
+        _check(stop)
+        node = SpineNode(Controllers.default(), bus, io, _node_config(args))
+        # before start(): a full collection holds the interpreter for tens of ms, during which nothing could
+        # feed the motors that start() enabled (their CAN timeout is 50 ms)
+        rt_done.append(realtime.freeze_startup_objects())
+        _check(stop)
+        try:
+            raising[0] = True  # the handshake waits: a signal ends them (start() stops what it enabled)
+            _check(stop)
             bus.start()
+        finally:
+            raising[0] = False
+        _check(stop)
     except MotorBusError as exc:  # e.g. a motor that did not answer: say which, stop the others, exit
         log.error("motor bus start-up failed: %s", exc)
         bus.shutdown()
@@ -171,17 +231,16 @@ def run(args: argparse.Namespace) -> int:
         if isinstance(exc, MotorSetupError):  # the robot as wired cannot run (two motors on one id): exit 2
             raise BadInput(f"motor bus start-up refused: {exc}") from exc
         return 1
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM while starting: the motors enabled so far are stopped
+    except (KeyboardInterrupt, _Stopped):  # a signal while starting: the motors enabled so far are stopped
         bus.shutdown()
         io.close()
-        raise
+        raise _Stopped from None
     log.info("spine-node: motors=%s clock=%s rate=%.0f Hz", args.motors, args.clock, args.rate)
     try:
-        with stop_on_signals() as stop:
-            if args.clock == "lockstep":
-                res = run_lockstep(node, args.duration, stop, idle_timeout_s=args.idle_timeout)
-            else:
-                res = run_realtime(node, args.duration, stop)
+        if args.clock == "lockstep":
+            res = run_lockstep(node, args.duration, stop, idle_timeout_s=args.idle_timeout)
+        else:
+            res = run_realtime(node, args.duration, stop)
     finally:
         bus.shutdown()
         io.close()
