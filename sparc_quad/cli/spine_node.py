@@ -38,6 +38,7 @@ from spine_module import params as P
 from spine_module.buses import registry
 from spine_module.buses.base import MotorBusError, MotorSetupError
 from spine_module.messages import channels
+from spine_module.node.realtime import WAKE_LATENCY_DEFAULT_US
 from spine_module.safety import SafetyConfig
 
 log = logging.getLogger("sparc_quad.cli.spine_node")
@@ -83,6 +84,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     rt.add_argument("--lock-memory", action="store_true",
                     help="lock the process's memory (mlockall) so no page fault stalls a tick; best effort")
     add_wake_latency_option(rt)
+    p.set_defaults(wake_latency_us=WAKE_LATENCY_BY_BACKEND)
     add_can_options(p)
     add_experiment_args(p)
     p.set_defaults(func=run)
@@ -140,6 +142,25 @@ def _check(stop: Stop) -> None:
         raise _Stopped
 
 
+class _ByBackend:
+    """--wake-latency-us not given: held at 0 us for the robot's motors (`--motors can`), where the node is
+    the real-time process (docs/performance.md); off for the simulated backends, which run beside a
+    simulator on a shared machine and would keep every CPU of it out of deep idle (issue 31)."""
+
+    def __str__(self) -> str:
+        return f"{WAKE_LATENCY_DEFAULT_US} with --motors can, off otherwise"
+
+
+WAKE_LATENCY_BY_BACKEND = _ByBackend()
+
+
+def wake_latency(args: argparse.Namespace) -> int | None:
+    """The wake-latency bound to hold, us (None: none), after the per-backend default."""
+    if isinstance(args.wake_latency_us, _ByBackend):
+        return WAKE_LATENCY_DEFAULT_US if args.motors == "can" else None
+    return args.wake_latency_us
+
+
 def _node_config(args: argparse.Namespace):
     from spine_module.node import NodeConfig
 
@@ -194,7 +215,7 @@ def _run(args: argparse.Namespace, stop: Stop, raising: list[bool]) -> int:
     try:
         rt_done = realtime.apply(realtime.RtOptions(cpu=args.cpu, rt_priority=args.rt_priority,
                                                     lock_memory=args.lock_memory,
-                                                    wake_latency_us=args.wake_latency_us))
+                                                    wake_latency_us=wake_latency(args)))
         for line in rt_done:
             log.log(logging.WARNING if " not " in line else logging.INFO, "spine-node: %s", line)
     except realtime.RtSetupError as exc:

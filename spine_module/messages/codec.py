@@ -30,6 +30,7 @@ from spine_module.messages.lcmt.sparc import (
 )
 from spine_module.messages.motor import MotorCommand, MotorFeedback
 from spine_module.messages.types import MODES, Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
+from spine_module.workspace import unreachable
 
 LCM_TYPES = (torso_state_t, spine_command_t, spine_state_t, motor_command_t, motor_feedback_t, heartbeat_t)
 
@@ -354,11 +355,25 @@ _C_UTIME, _C_SEQ, _C_MODE, _C_X_D, _C_DX_D, _C_DDX_D, _C_K, _C_D, _C_FRICTION, _
 _COMMAND_BOUNDS = Bounds(spine_command_t, {**HEADER_RANGES, "mode": MODE_RANGE, **COMMAND_RANGES})
 
 
+# modes that act on x_d (JOINT_TORQUE too: if its commands stop, the node holds x_d in impedance mode)
+_TARGET_MODES = frozenset((int(Mode.IMPEDANCE), int(Mode.PD), int(Mode.JOINT_TORQUE)))
+
+
+def _check_target(channel: str, mode: int, x: float, z: float, theta: float) -> None:
+    """A target outside the spine's workspace (spine_module.workspace) would pin the joints at their limits
+    at full torque: refused, naming x_d, in the modes that use it."""
+    if mode in _TARGET_MODES:
+        why = unreachable(x, z, theta)
+        if why is not None:
+            raise MessageError(channel, "x_d", f"({x:g}, {z:g}, {theta:g}) {why}")
+
+
 def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
     vals = _COMMAND.unpack(data)
     if vals is None:
         return decode_command_checked(data, channel)
     v = _COMMAND_BOUNDS.check(channel, vals)
+    _check_target(channel, vals[_C_MODE], *vals[_C_X_D:_C_X_D + 3])
     return SpineCommand(MODES[vals[_C_MODE]], v[_C_X_D:_C_X_D + 3], v[_C_DX_D:_C_DX_D + 3],
                         v[_C_DDX_D:_C_DDX_D + 3], v[_C_K:_C_K + 3], v[_C_D:_C_D + 3], vals[_C_FRICTION] != 0,
                         v[_C_TAU_FF:_C_TAU_FF + 3], vals[_C_RESET] != 0, _s(vals[_C_UTIME]), vals[_C_SEQ])
@@ -368,6 +383,7 @@ def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -
     """`decode_command` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, spine_command_t)
     v = _COMMAND_BOUNDS.check_message(channel, m)
+    _check_target(channel, m.mode, *m.x_d)
     return SpineCommand(mode=Mode(m.mode), x_d=v[_C_X_D:_C_X_D + 3], dx_d=v[_C_DX_D:_C_DX_D + 3],
                         ddx_d=v[_C_DDX_D:_C_DDX_D + 3], k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
                         friction_compensation=bool(m.friction_compensation),

@@ -125,6 +125,7 @@ class SpineNode:
         self._set_for: tuple = ()
         self._limits = safety.TorqueLimits.from_config(self.cfg.safety)  # the output stage's numbers
         self._polled_at: float | None = None  # node time the inputs were last polled (tick or start-up drain)
+        self._law_clamped = False  # this tick's controller clamped a torque itself
         self.stalls = 0  # ticks after a gap longer than the feedback deadline (their inputs drained, stale)
         self.drained_at_start = 0  # inputs queued before the first tick, dropped unused
 
@@ -290,7 +291,10 @@ class SpineNode:
         # (disabled, E-stop, a failed controller) send zeros
         limited = True
         if mode_i == _IMPEDANCE or mode_i == _PD:
+            self._law_clamped = False
             tau_l, x, dx, ok = self._control(mode_i, scale, default_gains, q, dq)
+            if self._law_clamped:
+                faults |= _TORQUE_CLAMPED
             if not ok:
                 faults |= _CONTROLLER
                 limited = False
@@ -396,6 +400,9 @@ class SpineNode:
                           out.error)
             return [0.0, 0.0, 0.0], x, dx, False
         tau = _floats(out.tau)
+        sat = getattr(out, "saturated", None)  # the law's own clamp cut a torque: TORQUE_CLAMPED as well
+        if sat is not None:
+            self._law_clamped = bool(sat[0] or sat[1] or sat[2]) if len(sat) == 3 else bool(np.any(sat))
         if not default_gains:
             ff = _floats(c.tau_ff)
             if len(tau) == 3 == len(ff):
