@@ -75,6 +75,7 @@ class LcmMotorBus(MotorBus):
         self._newest: MotorFeedback | None = None
         self._error: codec.MessageError | None = None
         self._last_feedback_seq = -1
+        self._last_sent = (-1, 0.0)  # seq and stamp of the last command sent (stop() follows on from it)
         self.dropped = 0  # feedback superseded before the node read it
         self._sub = self.lc.subscribe(feedback_channel, self._on_feedback)
         self._sub.set_queue_capacity(QUEUE_CAPACITY)
@@ -92,11 +93,20 @@ class LcmMotorBus(MotorBus):
         self._newest = fb
 
     def send(self, command: MotorCommand) -> None:
+        self._last_sent = (command.seq, command.stamp_s)
         try:
             data = codec.encode_motor_command(command, self._last_feedback_seq)
             self.lc.publish(self.command_channel, data)
         except OSError as exc:
             raise MotorBusError(f"LCM publish on {self.command_channel} failed: {exc}") from exc
+
+    def stop(self) -> None:
+        """Zero torque, motors stopped, as the next message of the sequence (seq one past the last command
+        sent, stamped as it was): a robot that orders commands by seq does not take it for a stale one."""
+        seq, stamp_s = self._last_sent
+        cmd = MotorCommand.zero(3, enable=False)
+        cmd.seq, cmd.stamp_s = seq + 1, stamp_s
+        self.send(cmd)
 
     def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
         """Newest feedback, dispatching at most `max_messages` LCM messages (of any channel on the shared

@@ -333,8 +333,13 @@ class SpineNode:
             faults |= _BUS
 
         hb_next = self._hb_next
-        if hb_next is None or now >= hb_next or now < hb_next - 10 * cfg.heartbeat_period_s:
-            self._hb_next = now + cfg.heartbeat_period_s
+        period = cfg.heartbeat_period_s
+        if hb_next is None or now >= hb_next or now < hb_next - 10 * period:
+            # on its own schedule (next = previous slot + period), not "a period after the tick that sent
+            # it": late ticks then do not stretch every period (90-95 Hz measured instead of 100); a node far
+            # behind (or a clock that went back) starts a new schedule from now
+            self._hb_next = (now + period if hb_next is None or now >= hb_next + period
+                             or now < hb_next - 10 * period else hb_next + period)
             sv = self._sv
             io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(sv.latched),
                                            reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq))
@@ -460,7 +465,9 @@ class SpineNode:
             self._ratelog("tick", now, logging.ERROR, "control tick failed (%d so far), motors stopped: %r",
                           self.tick_errors, exc)
             try:
-                self.bus.send(MotorCommand.zero(3, enable=False))
+                stop = MotorCommand.zero(3, enable=False)
+                stop.seq, stop.stamp_s = self.seq, now  # in the sequence, like every command of the node
+                self.bus.send(stop)
             except Exception as exc2:  # the bus is broken too: nothing more to do this tick
                 self._ratelog("tick-bus", now, logging.ERROR, "could not stop motors: %r", exc2)
             self.seq += 1
