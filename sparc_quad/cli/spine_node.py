@@ -45,18 +45,26 @@ log = logging.getLogger("sparc_quad.cli.spine_node")
 
 # exit codes besides the CLI's (0 done or SIGTERM, 1 failed, 2 bad input, 130 Ctrl-C; docs/cli.md)
 EXIT_LATCHED = 3  # the run ended with a fault latched (node or motor bus), whatever stopped it
+# before it starts, the node listens this long for another node's heartbeat (every 10 ms in real time, every
+# 50 ms from a lockstep node waiting for its robot)
+NODE_LISTEN_S = 0.12
 SOFT_START_MAX_S = 10.0  # a longer ramp leaves the spine soft for most of a run: a typo, not a setting
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("spine-node", help="run the spine node: motors via a bus backend, LCM interface",
-                       description="The 1 kHz spine node: reads motor feedback from --motors, torso state "
-                                   "and commands from LCM, runs the controller and the safety logic, sends "
-                                   "torques, publishes SPARC_SPINE_STATE and a heartbeat.")
+                       description="The 1 kHz spine node: runs the controller and the safety logic between "
+                                   "the motors and the torso computer. --motors can or lcm: motor feedback "
+                                   "from that backend, torso state, commands and the robot's heartbeat from "
+                                   "LCM (--lcm-url); publishes SPARC_SPINE_STATE and its heartbeat there. "
+                                   "--motors inprocess: the bench robot and its scripted commands run in "
+                                   "this process, nothing is read from or published to LCM. Exit codes: 0 "
+                                   "done or SIGTERM, 1 a motor did not answer, 2 bad input, 3 the run ended "
+                                   "with a latched fault, 130 Ctrl-C.")
     p.add_argument("--motors", default="lcm", choices=sorted(registry.BACKENDS),
                    help="motor bus backend (inprocess runs the bench robot in this process, in lockstep)")
     p.add_argument("--lcm-url", type=lcm_url, default=channels.DEFAULT_URL,
-                   help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s)")
+                   help="LCM URL (default: $LCM_DEFAULT_URL or %(default)s; unused with --motors inprocess)")
     p.add_argument("--rate", type=node_rate, default=P.CONTROL_RATE_HZ,
                    help=f"control rate, Hz, {NODE_RATE_MIN_HZ:g}..{P.CONTROL_RATE_HZ:g}")
     p.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime",
@@ -229,8 +237,15 @@ def _run(args: argparse.Namespace, stop: Stop, raising: list[bool]) -> int:
     except RuntimeError as exc:
         raise BadInput(f"cannot open LCM at {args.lcm_url!r} (a multicast route is needed, see docs): "
                        f"{exc}") from exc
-    bus = _make_bus(args, lc)
     io = LcmNodeIO(lc)
+    peers = io.listen_for_nodes(NODE_LISTEN_S)  # before this node publishes or opens its motors
+    if peers:
+        io.close()
+        raise BadInput("another spine node is running on this LCM URL (" + ", ".join(
+            f"{sender!r} instance {inst:#x}" for inst, sender in peers.items()) + f", {args.lcm_url!r}): two "
+            "nodes would both command the motors; stop it first")
+    _check(stop)
+    bus = _make_bus(args, lc)
     try:
         _check(stop)
         node = SpineNode(Controllers.default(), bus, io, _node_config(args))

@@ -392,8 +392,8 @@ def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -
 
 
 _HEARTBEAT = _LAYOUTS[heartbeat_t]
-_H_UTIME, _H_SEQ, _H_SENDER, _H_FAULT, _H_RESET_COUNT = (
-    _HEARTBEAT.index(f)[0] for f in ("utime", "seq", "sender", "fault", "reset_count"))
+_H_UTIME, _H_SEQ, _H_SENDER, _H_FAULT, _H_RESET_COUNT, _H_INSTANCE = (
+    _HEARTBEAT.index(f)[0] for f in ("utime", "seq", "sender", "fault", "reset_count", "instance"))
 _HEARTBEAT_BOUNDS = Bounds(heartbeat_t, HEADER_RANGES)
 
 
@@ -403,7 +403,7 @@ def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> He
         return decode_heartbeat_checked(data, channel)
     _HEARTBEAT_BOUNDS.check(channel, vals)
     return Heartbeat(sender=vals[_H_SENDER], fault=vals[_H_FAULT] != 0, reset_count=vals[_H_RESET_COUNT],
-                     stamp_s=_s(vals[_H_UTIME]), seq=vals[_H_SEQ])
+                     stamp_s=_s(vals[_H_UTIME]), seq=vals[_H_SEQ], instance=vals[_H_INSTANCE])
 
 
 def decode_heartbeat_checked(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> Heartbeat:
@@ -411,7 +411,7 @@ def decode_heartbeat_checked(data: bytes, channel: str = channels.HEARTBEAT_ROBO
     m = decode_raw(channel, data, heartbeat_t)
     _HEARTBEAT_BOUNDS.check_message(channel, m)
     return Heartbeat(sender=m.sender, fault=bool(m.fault), reset_count=m.reset_count, stamp_s=_s(m.utime),
-                     seq=m.seq)
+                     seq=m.seq, instance=m.instance)
 
 
 _FEEDBACK = _LAYOUTS[motor_feedback_t]
@@ -610,6 +610,7 @@ def encode_heartbeat(h: Heartbeat) -> bytes:
     m = _blank(heartbeat_t)
     m.utime, m.seq, m.sender, m.fault, m.reset_count = (_us(h.stamp_s), int(h.seq), h.sender, bool(h.fault),
                                                         int(h.reset_count))
+    m.instance = int(h.instance)
     return _encode(m)
 
 

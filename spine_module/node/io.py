@@ -126,6 +126,19 @@ class NodeIO:
     def __init__(self) -> None:
         self.inbox = Inbox()
         self.torso_waits = 0  # lockstep ticks whose torso state came after their feedback (await_torso)
+        self.instance = 0  # this node's heartbeat instance (set by SpineNode); others heard go to `peers`
+        self.peers: dict[int, str] = {}  # other spine nodes heard on SPARC_HEARTBEAT_NODE: instance -> sender
+
+    def offer_node_heartbeat(self, channel: str, data: bytes) -> None:
+        """A heartbeat on the node channel: this node's own (LCM loops it back) or another node's."""
+        try:
+            hb = codec.decode_heartbeat(data, channel)
+        except MessageError:
+            return
+        if hb.instance != self.instance and hb.instance not in self.peers:
+            self.peers[hb.instance] = hb.sender
+            log.error("another spine node is on this LCM URL: %r, instance %#x (this one: %#x)", hb.sender,
+                      hb.instance, self.instance)
 
     def poll(self) -> None:
         """Move everything that has arrived into the inbox without blocking."""
@@ -215,6 +228,7 @@ class LcmNodeIO(NodeIO):
         super().__init__()
         self.lc = lc
         self._subs = [lc.subscribe(ch, self.inbox.offer_bytes) for ch in _INCOMING]
+        self._subs.append(lc.subscribe(channels.HEARTBEAT_NODE, self.offer_node_heartbeat))
         for sub in self._subs:
             sub.set_queue_capacity(QUEUE_CAPACITY)
         self.publish_errors = 0
@@ -229,6 +243,16 @@ class LcmNodeIO(NodeIO):
             if time.perf_counter() >= deadline:
                 break
         self.handled_last_poll = n
+
+    def listen_for_nodes(self, duration_s: float) -> dict[int, str]:
+        """Dispatch for `duration_s` (before this node publishes anything) and return the other nodes heard:
+        a node that starts beside a running one refuses to (spine-node exit 2)."""
+        deadline = time.perf_counter() + duration_s
+        while True:
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                return dict(self.peers)
+            self.lc.handle_timeout(max(1, round(left * 1e3)))
 
     def drain(self) -> int:
         """Dispatch everything that waited in LCM's queues (see DRAIN_MAX_MESSAGES, DRAIN_BUDGET_S)."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
+import secrets
 import threading
 import time
 from collections.abc import Callable
@@ -41,6 +42,7 @@ _BAD_BY_CHANNEL = {ch.TORSO_STATE: int(Fault.BAD_TORSO), ch.SPINE_COMMAND: _BAD_
 _NOISY = Fault.TORQUE_CLAMPED | Fault.JOINT_LIMIT
 _NOISY_BITS = int(_NOISY)
 _MOTOR, _CONTROLLER, _BUS = int(Fault.MOTOR), int(Fault.CONTROLLER), int(Fault.BUS)
+_NODE_CONFLICT = int(Fault.NODE_CONFLICT)
 _JOINT_LIMIT, _TORQUE_CLAMPED = int(Fault.JOINT_LIMIT), int(Fault.TORQUE_CLAMPED)
 _IMPEDANCE, _PD = int(Mode.IMPEDANCE), int(Mode.PD)
 _DAMPING, _JOINT_TORQUE = int(Mode.DAMPING), int(Mode.JOINT_TORQUE)
@@ -69,6 +71,8 @@ class NodeConfig:
     name: str = "spine-node"
     jitter_window: int = 1000
     bad_hold_s: float = 0.1  # a BAD_* fault bit stays set this long after the last rejected message
+    # drawn once per node: its heartbeats carry it, so two nodes on one URL tell each other apart (never 0)
+    instance: int = field(default_factory=lambda: secrets.randbits(62) | 1)
 
 
 class _RateLimitedLog:
@@ -90,6 +94,7 @@ class SpineNode:
         self.bus = bus
         self.io = io
         self.cfg = config if config is not None else NodeConfig()
+        io.instance = self.cfg.instance
         # safety state as plain values (`safety.supervise_values`); the `safety` property shows it as a
         # SafetyState
         self._sv = safety.Supervised()
@@ -260,6 +265,8 @@ class SpineNode:
 
         command = self.command
         requested = command.mode if command is not None else _MODE_DISABLED
+        if io.peers and not self._sv.latched & _NODE_CONFLICT:  # another node commands these motors too
+            self._sv = self._sv._replace(latched=self._sv.latched | _NODE_CONFLICT)
         self._sv = sv = _supervise_values(
             self._sv, now, _tuple_new(_Receipts, (self._rx_torso, self._rx_feedback, self._rx_command,
                                                   self._rx_heartbeat)), int(requested), reset, cfg.safety)
@@ -342,7 +349,8 @@ class SpineNode:
                              or now < hb_next - 10 * period else hb_next + period)
             sv = self._sv
             io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(sv.latched),
-                                           reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq))
+                                           reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq,
+                                           instance=cfg.instance))
             self._hb_seq += 1
 
         if faults != self._last_faults:
@@ -487,7 +495,8 @@ class SpineNode:
         now = self.last_now if self.last_now is not None else 0.0
         sv = self._sv
         self.io.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=bool(sv.latched),
-                                            reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq))
+                                            reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq,
+                                            instance=self.cfg.instance))
         self._hb_seq += 1
 
     def stop(self) -> None:
