@@ -285,6 +285,9 @@ def _run(args: argparse.Namespace, stop: Stop, raising: list[bool]) -> int:
                "jitter_max_s": res.jitter_max_s, "overruns": res.overruns,
                "period": node.stats.histogram.summary(), "realtime": rt_done, "rejected": node.rejected_count,
                "rejected_by_channel": io.inbox.rejected,
+               # sequence numbers that went back, repeated or jumped, per channel (node.io.SEQ_RESYNC)
+               "seq_anomalies": io.inbox.seq_anomalies, "stalls": node.stalls,
+               "drained_at_start": node.drained_at_start,
                "last_faults": node.state.faults.name or "NONE", "last_rejected": node.rejected,
                "repeated_ticks": node.repeated_ticks,
                # lockstep: ticks whose torso state came after their feedback, and those run without it

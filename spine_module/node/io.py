@@ -54,6 +54,15 @@ QUEUE_CAPACITY = 128
 # a flood cannot hold the node in it; the node treats what it drained as old (runner, `_receipt_time`).
 DRAIN_MAX_MESSAGES = 20_000
 DRAIN_BUDGET_S = 0.02
+# Sequence numbers (torso_state_t.seq is "+1 per message"): on every input channel a seq that goes back,
+# repeats or jumps is counted (`Inbox.seq_anomalies`). The torso state has one producer, the estimator, and
+# is used as this tick's q1, so there a repeat or a step back is also refused (never used, as if it had not
+# come): a replayed or frozen estimator goes TORSO_STALE within 20 ms. (A lockstep robot's resend of a tick
+# the node has answered repeats its torso state too; the node has it already.) An estimator that restarted
+# is followed again after SEQ_RESYNC in-order messages of its new sequence. Commands may come from several
+# senders (the torso computer, an operator's `spine-cmd --mode estop` starting at seq 0), so they are
+# counted, never refused.
+SEQ_RESYNC = 3
 
 
 class Inbox:
@@ -72,6 +81,11 @@ class Inbox:
         self.dropped: dict[str, int] = dict.fromkeys(_INCOMING, 0)  # superseded before the node looked
         self.rejected: dict[str, int] = dict.fromkeys(_INCOMING, 0)  # refused, per channel
         self._foreign: set[str] = set()  # channels with a refused foreign payload since the last take
+        # per channel: {"backwards": n, "repeat": n, "jump": n} (see SEQ_RESYNC)
+        self.seq_anomalies: dict[str, dict[str, int]] = {
+            ch: {"backwards": 0, "repeat": 0, "jump": 0} for ch in _INCOMING}
+        self._last_seq: dict[str, int] = {}
+        self._torso_resync: tuple[int, int] | None = None  # (last seq of a new torso sequence, its length)
 
     def offer_bytes(self, channel: str, data: bytes) -> None:
         decode = _INCOMING.get(channel)
@@ -91,6 +105,8 @@ class Inbox:
             self.rejected[channel] += 1
             self.rejects.append(exc)
             return
+        if not self._seq_ok(channel, msg.seq):
+            return
         if channel == channels.TORSO_STATE:
             self.dropped[channel] += self.torso is not None
             self.torso = msg
@@ -101,6 +117,30 @@ class Inbox:
         else:
             self.dropped[channel] += self.heartbeat is not None
             self.heartbeat = msg
+
+    def _seq_ok(self, channel: str, seq: int) -> bool:
+        """Count a seq that goes back, repeats or jumps; refuse a torso state's repeat or step back."""
+        last = self._last_seq.get(channel)
+        if last is None or seq == last + 1:
+            self._last_seq[channel] = seq
+            self._torso_resync = None if channel == channels.TORSO_STATE else self._torso_resync
+            return True
+        counts = self.seq_anomalies[channel]
+        if seq > last:
+            counts["jump"] += 1
+            self._last_seq[channel] = seq
+            return True
+        counts["repeat" if seq == last else "backwards"] += 1
+        if channel != channels.TORSO_STATE:
+            self._last_seq[channel] = seq
+            return True
+        run = self._torso_resync  # a restarted estimator: followed after SEQ_RESYNC in-order messages
+        run = (seq, run[1] + 1) if run is not None and seq == run[0] + 1 else (seq, 1)
+        self._torso_resync = run
+        if run[1] >= SEQ_RESYNC:
+            self._last_seq[channel], self._torso_resync = seq, None
+            return True
+        return False  # not used, like no message: a frozen or replayed estimator goes TORSO_STALE
 
     def take(self) -> tuple:
         """(torso, command, heartbeat, reset requested, rejects) since the last take; None if none."""
