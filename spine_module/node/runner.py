@@ -24,6 +24,7 @@ import numpy as np
 
 from spine_module import params, safety
 from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
+from spine_module.control.gain_limits import unstable_gains
 from spine_module.messages import Fault, Heartbeat, MessageError, Mode, SpineCommand, SpineState, TorsoState
 from spine_module.messages import channels as ch
 from spine_module.messages.types import MODES
@@ -43,6 +44,7 @@ _NOISY = Fault.TORQUE_CLAMPED | Fault.JOINT_LIMIT
 _NOISY_BITS = int(_NOISY)
 _MOTOR, _CONTROLLER, _BUS = int(Fault.MOTOR), int(Fault.CONTROLLER), int(Fault.BUS)
 _NODE_CONFLICT = int(Fault.NODE_CONFLICT)
+_GAIN_MODES = frozenset((Mode.IMPEDANCE, Mode.PD))  # commands whose k and d the law renders
 _JOINT_LIMIT, _TORQUE_CLAMPED = int(Fault.JOINT_LIMIT), int(Fault.TORQUE_CLAMPED)
 _IMPEDANCE, _PD = int(Mode.IMPEDANCE), int(Mode.PD)
 _DAMPING, _JOINT_TORQUE = int(Mode.DAMPING), int(Mode.JOINT_TORQUE)
@@ -257,6 +259,14 @@ class SpineNode:
         if torso is not None:
             self.torso = torso
             self._rx_torso = arrived(now, gap_start, scfg.torso_deadline_s)
+        if command is not None and command.mode in _GAIN_MODES:
+            why = unstable_gains(command.k, command.d, cfg.rate_hz)
+            if why is not None:  # a loop that would chatter at full torque: refused, the last command stays
+                self._flag_bad(_BAD_COMMAND, now)
+                self.rejected = f"{ch.SPINE_COMMAND}.k/d: {why}"
+                self.rejected_count += 1
+                self._ratelog("reject:gains", now, logging.WARNING, "rejected %s", self.rejected)
+                command = None
         if command is not None:
             self.command = command
             self._rx_command = arrived(now, gap_start, scfg.command_deadline_s)
