@@ -176,3 +176,20 @@ def test_motor_outside_its_range_at_start_up_refuses():
                 mb.start()
         finally:
             mb.shutdown()
+
+
+def test_motor_answering_with_another_motors_id_latches():
+    """Motor 3 starts answering as id 2 (a mis-set id): its own id goes silent, which latches. (Emulator
+    answering at once, not in lockstep, whose step waits for every motor id it knows.)"""
+    with virtual_rig(lockstep=False) as (channel, emu, sniffer), \
+            CanMotorBus(rig_config(), interface="virtual", channel=channel) as mb:
+        mb.start()
+
+        def rename(k):
+            if k == 30:
+                with emu.lock:
+                    emu.motors[3].can_id = 2  # the emulator still routes its frames; its replies say 2
+        err, _ = _drive(mb, 400, during=rename)
+        assert err is not None and "stopped answering: q4 (CAN id 3)" in str(err)
+        assert any("q4 (CAN id 3)" in f for f in mb.latched_faults)
+        _after_latch_only_stops(mb, sniffer)
