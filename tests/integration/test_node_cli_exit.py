@@ -8,6 +8,8 @@ than two periods of the node's own --rate), a run that ends with a latched bus f
 from __future__ import annotations
 
 import json
+import os
+import signal
 import threading
 import uuid
 from pathlib import Path
@@ -104,3 +106,28 @@ def test_run_ending_latched_is_exit_3(emulated, tmp_path, capsys):
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert any("stopped answering: q4 (CAN id 3)" in f for f in out["bus_faults"]), out
     assert out["ended_latched"] and rc == 3
+
+
+@pytest.mark.parametrize("sig,rc", [(signal.SIGINT, 130), (signal.SIGTERM, 0)])
+def test_signal_during_the_handshake_stops_every_enabled_motor(emulated, tmp_path, capsys, sig, rc):
+    """The signal arrives when the first motor is enabled (an emulator hook, in this process's main-thread
+    handler): the handshake ends, every motor gets a stop frame after its enable, exit as the signal asks."""
+    channel, add = emulated
+    emu = add((1, 2, 3))
+    handle = emu.handle
+    sent = []
+
+    def handle_then_signal(msg):
+        handle(msg)
+        if not sent and P.split_id(msg.arbitration_id)[0] == P.CommType.ENABLE:
+            sent.append(True)
+            os.kill(os.getpid(), sig)
+    emu.handle = handle_then_signal
+    assert main(_node(channel, _motor_config(tmp_path), "--duration", "5")) == rc
+    assert sent and "ticks" not in capsys.readouterr().out  # it never reached its loop
+    enables = {i: max(k for k, f in enumerate(emu.received) if isinstance(f, P.Enable) and f.motor_id == i)
+               for i in (1, 2, 3) if any(isinstance(f, P.Enable) and f.motor_id == i for f in emu.received)}
+    assert enables
+    for i, k in enables.items():
+        assert wait_for(lambda i=i, k=k: any(isinstance(f, P.Stop) and f.motor_id == i
+                                             for f in list(emu.received)[k:])), f"motor {i} not stopped"
