@@ -121,15 +121,14 @@ class Inbox:
     def _seq_ok(self, channel: str, seq: int) -> bool:
         """Count a seq that goes back, repeats or jumps; refuse a torso state's repeat or step back."""
         last = self._last_seq.get(channel)
-        if last is None or seq == last + 1:
+        if last is None or seq > last:
+            if last is not None and seq != last + 1:
+                self.seq_anomalies[channel]["jump"] += 1  # messages lost (UDP) or skipped: still used
             self._last_seq[channel] = seq
-            self._torso_resync = None if channel == channels.TORSO_STATE else self._torso_resync
+            if channel == channels.TORSO_STATE:
+                self._torso_resync = None
             return True
         counts = self.seq_anomalies[channel]
-        if seq > last:
-            counts["jump"] += 1
-            self._last_seq[channel] = seq
-            return True
         counts["repeat" if seq == last else "backwards"] += 1
         if channel != channels.TORSO_STATE:
             self._last_seq[channel] = seq

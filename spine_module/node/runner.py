@@ -201,9 +201,9 @@ class SpineNode:
         commands and feedback up to seconds old at start-up); the node then hears only what arrives from
         `now` on. Returns how many messages were dropped (also in `drained_at_start`)."""
         io = self.io
-        n = io.drain()
-        torso, command, heartbeat, _, _ = io.inbox.take()
-        n_taken = (torso is not None) + (command is not None) + (heartbeat is not None)
+        io.drain()
+        io.inbox.take()
+        dropped = io.inbox.received  # no tick has looked at any: every input so far is dropped
         while True:  # newest-wins buses keep one feedback; a queue (LCM) may hold many
             try:
                 fb = self.bus.receive(0.0)
@@ -211,13 +211,13 @@ class SpineNode:
                 break
             if fb is None:
                 break
-            n_taken += 1
+            dropped += 1
         self._polled_at = now
-        self.drained_at_start += max(n, n_taken)
-        return max(n, n_taken)
+        self.drained_at_start = dropped
+        return dropped
 
-    def _receipts_at(self, now: float) -> tuple[float, float]:
-        """Poll the inputs; returns (now, the start of the gap since the last poll). After a gap longer than
+    def _poll_inputs(self, now: float) -> float:
+        """Poll the inputs; returns the start of the gap since the last poll. After a gap longer than
         the feedback deadline (a stalled node, a late tick) everything queued is drained and an input taken
         now may have waited the whole gap: it counts as arrived at the gap's start, so an input whose
         deadline is shorter than the gap raises its stale fault this tick instead of being used as fresh."""
@@ -225,10 +225,10 @@ class SpineNode:
         self._polled_at = now
         if prev is None or now - prev - safety.EPS_S <= self.cfg.safety.feedback_deadline_s:
             self.io.poll()
-            return now, now
+            return now
         self.io.drain()
         self.stalls += 1
-        return now, prev
+        return prev
 
     @staticmethod
     def _arrived(now: float, gap_start: float, deadline_s: float) -> float:
@@ -246,7 +246,7 @@ class SpineNode:
         cfg = self.cfg
         scfg = cfg.safety
         io = self.io
-        now, gap_start = self._receipts_at(now)
+        gap_start = self._poll_inputs(now)
         arrived = self._arrived
         if feedback is not None:
             self._accept_feedback(feedback, arrived(now, gap_start, scfg.feedback_deadline_s))
