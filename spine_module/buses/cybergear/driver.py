@@ -105,6 +105,10 @@ class CanMotorBus(MotorBus):
         self._ranges = config.ranges
         self._clock = clock  # timeouts
         self._stamp_clock = stamp_clock or clock  # MotorFeedback.stamp_s (a simulation may supply its time)
+        # the plausibility checks' time between two frames of a motor: the frames' own receive stamps (the
+        # adapter's or the kernel's), which a host that processes bunched frames late does not squeeze;
+        # a simulation's stamp clock when one is given (its motors move in simulated time)
+        self._frame_time_from_msg = stamp_clock is None
         self.fault_raises = fault_raises
         self.plausibility = plausibility
         self._own_bus = bus is None
@@ -176,9 +180,10 @@ class CanMotorBus(MotorBus):
             if isinstance(frame, P.Feedback):
                 q, dq, tau, stamp = (j.q_from_motor(frame.position), j.dq_from_motor(frame.velocity),
                                      j.tau_from_motor(frame.torque), self._stamp_clock())
+                t_frame = msg.timestamp if self._frame_time_from_msg and msg.timestamp else stamp
                 if self._started and self.fault_raises:
                     why = implausible(j.name, j.gear_ratio, self.config.limit_torque_nm, s.reading, q, dq,
-                                      tau, stamp, frame.velocity, self.plausibility)
+                                      tau, t_frame, frame.velocity, self.plausibility)
                     if why is not None:  # never handed to the node: the last plausible reading stays
                         if not s.implausible:
                             s.implausible = True
@@ -187,7 +192,7 @@ class CanMotorBus(MotorBus):
                         self._cond.notify_all()
                         return
                 s.q, s.dq, s.tau = q, dq, tau
-                s.reading = Reading(q, dq, stamp)
+                s.reading = Reading(q, dq, t_frame)
                 s.temperature_c, s.mode, s.fault_bits = frame.temperature_c, frame.mode, frame.fault_bits
                 s.stamp_s, s.fresh, s.unanswered_since = stamp, True, None
                 s.frames += 1

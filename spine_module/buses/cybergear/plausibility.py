@@ -16,8 +16,10 @@ first frame that fails. The bounds, all joint side:
 - velocity not at the frame's saturated end (+-30 rad/s motor side: a reading there says nothing but
   "at least this fast"), torque estimate within the configured `limit_torque_nm` plus 10 %.
 
-The time between frames is the backend's stamp clock (simulated time in a lockstep rig), so a host that
-processes bunched frames late is judged on the motor's time, not on its own delay.
+The time between two frames of a motor is taken from the frames' receive stamps (python-can's
+`Message.timestamp`: the kernel's or the adapter's), or from the backend's stamp clock when a simulation
+gives one (its motors move in simulated time), so a host that processes bunched frames late is judged on
+the frames' time, not on its own delay.
 """
 
 from __future__ import annotations
