@@ -12,6 +12,7 @@ import argparse
 import contextlib
 import logging
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 
@@ -114,7 +115,8 @@ def _record_and_interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
-if (threading.current_thread() is threading.main_thread()
+# only in a `sparc-quad spine-node` process (a program or a test importing the CLI keeps Python's handler)
+if ("spine-node" in sys.argv[1:] and threading.current_thread() is threading.main_thread()
         and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
     signal.signal(signal.SIGINT, _record_and_interrupt)
 
@@ -129,6 +131,7 @@ def _node_signals() -> Iterator[tuple[Stop, list[bool]]]:
     if _EARLY_SIGNALS:
         stop.signum = _EARLY_SIGNALS[0]
         stop.set()
+        _EARLY_SIGNALS.clear()  # consumed by this run
 
     def handler(signum, frame) -> None:
         if stop.signum is None:
@@ -239,6 +242,9 @@ def _run(args: argparse.Namespace, stop: Stop, raising: list[bool]) -> int:
                        f"{exc}") from exc
     io = LcmNodeIO(lc)
     peers = io.listen_for_nodes(NODE_LISTEN_S)  # before this node publishes or opens its motors
+    if stop.is_set():
+        io.close()
+        raise _Stopped
     if peers:
         io.close()
         raise BadInput("another spine node is running on this LCM URL (" + ", ".join(

@@ -56,7 +56,12 @@ def handle(lc: lcm.LCM, timeout_s: float, spin_s: float = 0.0) -> int:
         timeout_s -= spin_s
         if timeout_s <= 0.0:
             return 0
-    return lc.handle_timeout(max(1, int(timeout_s * 1000)))
+    try:
+        return lc.handle_timeout(max(1, int(timeout_s * 1000)))
+    except OSError:  # LCM returns -1 when a signal interrupts the wait (EINTR): nothing was dispatched, and
+        # the caller's loop sees the stop request (a Ctrl-C on a lockstep node waiting for its robot was an
+        # "internal error", exit 1)
+        return 0
 
 
 class LcmMotorBus(MotorBus):

@@ -291,7 +291,10 @@ class LcmNodeIO(NodeIO):
             left = deadline - time.perf_counter()
             if left <= 0:
                 return dict(self.peers)
-            self.lc.handle_timeout(max(1, round(left * 1e3)))
+            try:
+                self.lc.handle_timeout(max(1, round(left * 1e3)))
+            except OSError:  # the wait interrupted by a signal (EINTR): the caller checks for a stop next
+                return dict(self.peers)
 
     def drain(self) -> int:
         """Dispatch everything that waited in LCM's queues (see DRAIN_MAX_MESSAGES, DRAIN_BUDGET_S)."""

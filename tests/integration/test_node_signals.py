@@ -77,3 +77,17 @@ def test_an_interrupt_swallowed_before_the_node_started_still_stops_it(monkeypat
     rc = main(["spine-node", "--motors", "lcm", "--lcm-url", "memq://", "--no-heartbeat", "--duration", "3"])
     assert rc == 130
     assert "ticks" not in capsys.readouterr().out  # it never ran its loop (3 s of it would print a summary)
+
+
+def test_signal_while_a_lockstep_node_waits_for_its_robot():
+    """LCM's wait returns -1 when a signal interrupts it: a Ctrl-C on a lockstep node waiting for its robot
+    was an internal error (exit 1). Signalled once it is in its loop (its 'motors=' line)."""
+    for sig, codes in ((signal.SIGINT, (130,)), (signal.SIGTERM, (0,))):
+        p = subprocess.Popen([*NODE, "--clock", "lockstep"], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True, env=ENV, cwd=ROOT)
+        for line in p.stderr:
+            if "spine-node: motors=" in line:
+                break
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=120)
+        assert p.returncode in codes, (sig.name, p.returncode, err[-500:])
