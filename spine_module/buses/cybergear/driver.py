@@ -50,6 +50,10 @@ CAN_ERR_BUSOFF = 0x40  # SocketCAN error-frame class bit for bus-off
 # node that has not started controlling by then gets its motors stopped (its first send enables them again)
 HOLD_PERIOD_MAX_S = 0.01
 HOLD_MAX_S = 2.0
+# every motor silent (cable, bus or host gone) is a lost bus after this long, or two silent_timeout_s if
+# longer; one motor silent while the others answer is lost after silent_timeout_s (CanMotorBus._silent).
+# The motors' own CAN timeout (50 ms shipped) stops them meanwhile
+SILENT_ALL_MIN_S = 0.5
 
 
 @dataclass
@@ -70,6 +74,7 @@ class _JointState:
     reading: Reading | None = None  # last plausible feedback (plausibility.py)
     implausible: bool = False  # a plausibility fault is latched for this motor (one message, not one a frame)
     unanswered_since: float | None = None  # monotonic time of the oldest command without a reply
+    unanswered_wall: float | None = None  # the same on the frames' clock (time.time(), Message.timestamp)
     run_seen: bool = False  # reported RUN since the last enable
     params: dict[int, tuple[bool, float | int]] = field(default_factory=dict)  # index -> (ok, value) read
 
@@ -122,6 +127,7 @@ class CanMotorBus(MotorBus):
         self._cond = threading.Condition(self._lock)
         self._stop_lock = threading.Lock()  # one stop sequence at a time; shutdown waits for it
         self._state = [_JointState() for _ in config.joints]
+        self._latest_rx_wall = 0.0  # Message.timestamp of the newest frame from a configured motor
         # latched faults: raised by every receive() (so the node's feedback goes stale and it drops to its
         # safe state) and by send() with enable=True, until start() clears them with the motors' faults
         self._errors: list[str] = []
@@ -172,6 +178,8 @@ class CanMotorBus(MotorBus):
             return
         with self._cond:
             self.rx_frames += 1
+            if frame.motor_id in self._ids:  # the newest frame from our motors, on the frames' own clock
+                self._latest_rx_wall = max(self._latest_rx_wall, msg.timestamp or time.time())
             i = self._ids.get(frame.motor_id)
             if i is None:  # a DeviceId reply from an unconfigured motor
                 self.ignored["unconfigured motor"] += 1
@@ -194,7 +202,7 @@ class CanMotorBus(MotorBus):
                 s.q, s.dq, s.tau = q, dq, tau
                 s.reading = Reading(q, dq, t_frame)
                 s.temperature_c, s.mode, s.fault_bits = frame.temperature_c, frame.mode, frame.fault_bits
-                s.stamp_s, s.fresh, s.unanswered_since = stamp, True, None
+                s.stamp_s, s.fresh, s.unanswered_since, s.unanswered_wall = stamp, True, None, None
                 s.frames += 1
                 if frame.fault_bits and self.fault_raises and self._started:
                     self._fault(f"motor {j.name} (CAN id {j.can_id}) reports "
@@ -265,6 +273,7 @@ class CanMotorBus(MotorBus):
         s = self._state[i]
         if s.unanswered_since is None:
             s.unanswered_since = now
+            s.unanswered_wall = time.time()
 
     def send(self, command: MotorCommand) -> None:
         """Encode one frame per motor and queue it without waiting. Raises MotorBusError on faults."""
@@ -352,9 +361,18 @@ class CanMotorBus(MotorBus):
 
     # --- receive -------------------------------------------------------------------------------------
     def _silent(self, now: float) -> list[str]:
+        """Motors lost: a command unanswered while another motor's frame came `silent_timeout_s` later (on
+        the frames' clock: a host that processes its queue late sees the replies in order, so its own stall
+        is no motor's silence), or unanswered for `silent_all_s` whatever else came (the bus or every
+        motor gone)."""
         out = []
+        timeout, latest = self.config.silent_timeout_s, self._latest_rx_wall
+        silent_all_s = max(SILENT_ALL_MIN_S, 2.0 * timeout)
         for s, j in zip(self._state, self.config.joints, strict=True):
-            if s.unanswered_since is not None and now - s.unanswered_since > self.config.silent_timeout_s:
+            if s.unanswered_since is None:
+                continue
+            others_later = s.unanswered_wall is not None and latest - s.unanswered_wall > timeout
+            if others_later or now - s.unanswered_since > silent_all_s:
                 out.append(f"{j.name} (CAN id {j.can_id})")
         return out
 
@@ -451,7 +469,7 @@ class CanMotorBus(MotorBus):
                 self._refuse_doubles_and_strays()
                 self._errors.clear()
                 for s in self._state:
-                    s.unanswered_since = None
+                    s.unanswered_since = s.unanswered_wall = None
                 self._started = True
             self._start_hold()
         except BaseException:
