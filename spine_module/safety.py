@@ -200,8 +200,11 @@ def supervise_values(prev: Supervised, now: float, rx: Receipts, requested: int,
     paused = (mode == _DISABLED and enable and active & _FEEDBACK_STALE
               and (last_mode in _RAMPED or was_stale) and ramp_t0 is not None)
     if paused:
-        stale_since = now if stale_since is None else stale_since
-        if now - stale_since > cfg.stale_resume_s:
+        if stale_since is None:  # the spell began when the feedback went stale, not at this (maybe late) tick
+            stale_since = now if rx_feedback is None else min(now, rx_feedback + cfg.feedback_deadline_s)
+        # a long gap, or a torso state gone stale meanwhile (its recovery soft-starts: q1 was not trusted),
+        # restarts the ramp
+        if now - stale_since > cfg.stale_resume_s or active & _TORSO_STALE:
             ramp_t0, stale_since = None, None
         scale = 0.0
     else:

@@ -94,6 +94,14 @@ def run(args: argparse.Namespace) -> int:
         codec.decode_command(codec.encode_command(cmd))
     except MessageError as exc:
         raise BadInput(f"not sent: {exc}") from exc
+    if mode in (Mode.IMPEDANCE, Mode.PD):  # the node refuses gains its loop would chatter with; it checks at
+        # its own --rate, this at the node's default (the fastest: the least strict)
+        from spine_module.control.gain_limits import unstable_gains
+        from spine_module.params import CONTROL_RATE_HZ
+
+        why = unstable_gains(cmd.k, cmd.d, CONTROL_RATE_HZ)
+        if why is not None:
+            raise BadInput(f"not sent: SPARC_SPINE_COMMAND.k/d: {why}")
     try:
         lc = lcm.LCM(args.lcm_url)
     except RuntimeError as exc:

@@ -13,11 +13,16 @@ from abc import ABC, abstractmethod
 
 from spine_module.messages.motor import MotorCommand, MotorFeedback
 
-__all__ = ["MotorBus", "MotorBusError", "MotorCommand", "MotorFeedback"]
+__all__ = ["MotorBus", "MotorBusError", "MotorCommand", "MotorFeedback", "MotorSetupError"]
 
 
 class MotorBusError(RuntimeError):
     """A transport failure the node must turn into its safe state (bus-off, send error, lost motor)."""
+
+
+class MotorSetupError(MotorBusError):
+    """The motors as wired cannot be run safely (e.g. two motors answer as one CAN id): the user must fix
+    the robot, not retry; the CLI exits 2 with this message."""
 
 
 class MotorBus(ABC):

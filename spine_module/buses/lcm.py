@@ -56,7 +56,12 @@ def handle(lc: lcm.LCM, timeout_s: float, spin_s: float = 0.0) -> int:
         timeout_s -= spin_s
         if timeout_s <= 0.0:
             return 0
-    return lc.handle_timeout(max(1, int(timeout_s * 1000)))
+    try:
+        return lc.handle_timeout(max(1, int(timeout_s * 1000)))
+    except OSError:  # LCM returns -1 when a signal interrupts the wait (EINTR): nothing was dispatched, and
+        # the caller's loop sees the stop request (a Ctrl-C on a lockstep node waiting for its robot was an
+        # "internal error", exit 1)
+        return 0
 
 
 class LcmMotorBus(MotorBus):
@@ -75,6 +80,7 @@ class LcmMotorBus(MotorBus):
         self._newest: MotorFeedback | None = None
         self._error: codec.MessageError | None = None
         self._last_feedback_seq = -1
+        self._last_sent = (-1, 0.0)  # seq and stamp of the last command sent (stop() follows on from it)
         self.dropped = 0  # feedback superseded before the node read it
         self._sub = self.lc.subscribe(feedback_channel, self._on_feedback)
         self._sub.set_queue_capacity(QUEUE_CAPACITY)
@@ -92,11 +98,20 @@ class LcmMotorBus(MotorBus):
         self._newest = fb
 
     def send(self, command: MotorCommand) -> None:
+        self._last_sent = (command.seq, command.stamp_s)
         try:
             data = codec.encode_motor_command(command, self._last_feedback_seq)
             self.lc.publish(self.command_channel, data)
         except OSError as exc:
             raise MotorBusError(f"LCM publish on {self.command_channel} failed: {exc}") from exc
+
+    def stop(self) -> None:
+        """Zero torque, motors stopped, as the next message of the sequence (seq one past the last command
+        sent, stamped as it was): a robot that orders commands by seq does not take it for a stale one."""
+        seq, stamp_s = self._last_sent
+        cmd = MotorCommand.zero(3, enable=False)
+        cmd.seq, cmd.stamp_s = seq + 1, stamp_s
+        self.send(cmd)
 
     def receive(self, timeout_s: float | None = 0.0) -> MotorFeedback | None:
         """Newest feedback, dispatching at most `max_messages` LCM messages (of any channel on the shared

@@ -30,6 +30,7 @@ from spine_module.messages.lcmt.sparc import (
 )
 from spine_module.messages.motor import MotorCommand, MotorFeedback
 from spine_module.messages.types import MODES, Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
+from spine_module.workspace import unreachable
 
 LCM_TYPES = (torso_state_t, spine_command_t, spine_state_t, motor_command_t, motor_feedback_t, heartbeat_t)
 
@@ -89,11 +90,14 @@ _NOT_NEGATIVE = Range(0.0, math.inf, reason="{v} is negative")
 HEADER_RANGES = {"seq": _NOT_NEGATIVE, "utime": _NOT_NEGATIVE}  # seq is checked (and named) first
 MODE_RANGE = Range(0.0, float(len(MODES) - 1), reason=f"{{v}} is not a mode (0..{max(Mode)})")  # MODES[v]
 MOTOR_MODE_RANGE = Range(0.0, 2.0, reason="{v} is not a motor mode (0 reset, 1 cal, 2 run)")
+QUAT_NORM_MIN, QUAT_NORM_MAX = 0.9, 1.1  # torso quaternion: renormalised within these norms, else refused
 TORSO_RANGES = {
     "q1": Range(-_PI, _PI, "rad"),
     "dq1": Range(-50.0, 50.0, "rad/s"),
     "ddq1": Range(-5000.0, 5000.0, "rad/s^2"),
-    "quat": Range(-1.0 - 1e-6, 1.0 + 1e-6, ""),
+    # no element of a quaternion whose norm is within 10 % of 1 exceeds 1.1; the norm itself is checked by
+    # the decoders (`_not_unit`), the same at every orientation
+    "quat": Range(-QUAT_NORM_MAX, QUAT_NORM_MAX, ""),
     "omega": Range(-50.0, 50.0, "rad/s"),
     "base_accel": Range(-500.0, 500.0, "m/s^2"),  # 50 g: beyond any landing of a legged robot
 }
@@ -315,7 +319,7 @@ def decode_torso(data: bytes, channel: str = channels.TORSO_STATE) -> TorsoState
     a = _T_QUAT
     w, x, y, z = vals[a:a + 4]
     norm = math.sqrt(w * w + x * x + y * y + z * z)
-    if not 0.9 <= norm <= 1.1:
+    if not QUAT_NORM_MIN <= norm <= QUAT_NORM_MAX:
         raise _not_unit(channel, norm)
     quat = v[a:a + 4]
     if norm != 1.0:  # x / 1.0 is x: a unit quaternion as sent is kept as it is
@@ -332,7 +336,7 @@ def decode_torso_checked(data: bytes, channel: str = channels.TORSO_STATE) -> To
     v = _TORSO_BOUNDS[bool(m.ddq1_valid) + 2 * base_valid].check_message(channel, m)
     w, x, y, z = m.quat
     norm = math.sqrt(w * w + x * x + y * y + z * z)
-    if not 0.9 <= norm <= 1.1:
+    if not QUAT_NORM_MIN <= norm <= QUAT_NORM_MAX:
         raise _not_unit(channel, norm)
     quat = v[_T_QUAT:_T_QUAT + 4]
     quat /= norm
@@ -351,11 +355,25 @@ _C_UTIME, _C_SEQ, _C_MODE, _C_X_D, _C_DX_D, _C_DDX_D, _C_K, _C_D, _C_FRICTION, _
 _COMMAND_BOUNDS = Bounds(spine_command_t, {**HEADER_RANGES, "mode": MODE_RANGE, **COMMAND_RANGES})
 
 
+# modes that act on x_d (JOINT_TORQUE too: if its commands stop, the node holds x_d in impedance mode)
+_TARGET_MODES = frozenset((int(Mode.IMPEDANCE), int(Mode.PD), int(Mode.JOINT_TORQUE)))
+
+
+def _check_target(channel: str, mode: int, x: float, z: float, theta: float) -> None:
+    """A target outside the spine's workspace (spine_module.workspace) would pin the joints at their limits
+    at full torque: refused, naming x_d, in the modes that use it."""
+    if mode in _TARGET_MODES:
+        why = unreachable(x, z, theta)
+        if why is not None:
+            raise MessageError(channel, "x_d", f"({x:g}, {z:g}, {theta:g}) {why}")
+
+
 def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
     vals = _COMMAND.unpack(data)
     if vals is None:
         return decode_command_checked(data, channel)
     v = _COMMAND_BOUNDS.check(channel, vals)
+    _check_target(channel, vals[_C_MODE], *vals[_C_X_D:_C_X_D + 3])
     return SpineCommand(MODES[vals[_C_MODE]], v[_C_X_D:_C_X_D + 3], v[_C_DX_D:_C_DX_D + 3],
                         v[_C_DDX_D:_C_DDX_D + 3], v[_C_K:_C_K + 3], v[_C_D:_C_D + 3], vals[_C_FRICTION] != 0,
                         v[_C_TAU_FF:_C_TAU_FF + 3], vals[_C_RESET] != 0, _s(vals[_C_UTIME]), vals[_C_SEQ])
@@ -365,6 +383,7 @@ def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -
     """`decode_command` field by field: the reference, and the path that names what is wrong."""
     m = decode_raw(channel, data, spine_command_t)
     v = _COMMAND_BOUNDS.check_message(channel, m)
+    _check_target(channel, m.mode, *m.x_d)
     return SpineCommand(mode=Mode(m.mode), x_d=v[_C_X_D:_C_X_D + 3], dx_d=v[_C_DX_D:_C_DX_D + 3],
                         ddx_d=v[_C_DDX_D:_C_DDX_D + 3], k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
                         friction_compensation=bool(m.friction_compensation),
@@ -373,8 +392,8 @@ def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -
 
 
 _HEARTBEAT = _LAYOUTS[heartbeat_t]
-_H_UTIME, _H_SEQ, _H_SENDER, _H_FAULT, _H_RESET_COUNT = (
-    _HEARTBEAT.index(f)[0] for f in ("utime", "seq", "sender", "fault", "reset_count"))
+_H_UTIME, _H_SEQ, _H_SENDER, _H_FAULT, _H_RESET_COUNT, _H_INSTANCE = (
+    _HEARTBEAT.index(f)[0] for f in ("utime", "seq", "sender", "fault", "reset_count", "instance"))
 _HEARTBEAT_BOUNDS = Bounds(heartbeat_t, HEADER_RANGES)
 
 
@@ -384,7 +403,7 @@ def decode_heartbeat(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> He
         return decode_heartbeat_checked(data, channel)
     _HEARTBEAT_BOUNDS.check(channel, vals)
     return Heartbeat(sender=vals[_H_SENDER], fault=vals[_H_FAULT] != 0, reset_count=vals[_H_RESET_COUNT],
-                     stamp_s=_s(vals[_H_UTIME]), seq=vals[_H_SEQ])
+                     stamp_s=_s(vals[_H_UTIME]), seq=vals[_H_SEQ], instance=vals[_H_INSTANCE])
 
 
 def decode_heartbeat_checked(data: bytes, channel: str = channels.HEARTBEAT_ROBOT) -> Heartbeat:
@@ -392,7 +411,7 @@ def decode_heartbeat_checked(data: bytes, channel: str = channels.HEARTBEAT_ROBO
     m = decode_raw(channel, data, heartbeat_t)
     _HEARTBEAT_BOUNDS.check_message(channel, m)
     return Heartbeat(sender=m.sender, fault=bool(m.fault), reset_count=m.reset_count, stamp_s=_s(m.utime),
-                     seq=m.seq)
+                     seq=m.seq, instance=m.instance)
 
 
 _FEEDBACK = _LAYOUTS[motor_feedback_t]
@@ -591,6 +610,7 @@ def encode_heartbeat(h: Heartbeat) -> bytes:
     m = _blank(heartbeat_t)
     m.utime, m.seq, m.sender, m.fault, m.reset_count = (_us(h.stamp_s), int(h.seq), h.sender, bool(h.fault),
                                                         int(h.reset_count))
+    m.instance = int(h.instance)
     return _encode(m)
 
 

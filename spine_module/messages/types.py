@@ -43,9 +43,10 @@ class Fault(IntFlag):
     BUS = 2048
     WAITING = 4096
     MOTOR = 8192
+    NODE_CONFLICT = 16384
 
 
-LATCHING = Fault.HEARTBEAT_LOST | Fault.ESTOP
+LATCHING = Fault.HEARTBEAT_LOST | Fault.ESTOP | Fault.NODE_CONFLICT
 MODES: tuple[Mode, ...] = tuple(sorted(Mode))  # MODES[i] is Mode(i) without the enum call (1 kHz paths)
 if [int(m) for m in MODES] != list(range(len(MODES))):
     raise RuntimeError("Mode values must be 0..n-1 (MODES[i] is Mode(i))")
@@ -97,6 +98,7 @@ class Heartbeat:
     reset_count: int = 0
     stamp_s: float = 0.0
     seq: int = 0
+    instance: int = 0  # random number the sender drew at start-up (0: none); tells two nodes apart
 
 
 @dataclass

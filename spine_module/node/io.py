@@ -49,6 +49,20 @@ _FOREIGN = {ch: codec.FingerprintError(ch, "", f"not a {codec.type_name(codec.TY
 MAX_MESSAGES_PER_POLL = 128
 POLL_BUDGET_S = 0.0005
 QUEUE_CAPACITY = 128
+# After a stall (a tick gap longer than an input's deadline) or before the first tick, everything queued is
+# from before: `drain` dispatches it all (newest per channel wins, the rest counted in `dropped`), bounded so
+# a flood cannot hold the node in it; the node treats what it drained as old (runner, `_receipt_time`).
+DRAIN_MAX_MESSAGES = 20_000
+DRAIN_BUDGET_S = 0.02
+# Sequence numbers (torso_state_t.seq is "+1 per message"): on every input channel a seq that goes back,
+# repeats or jumps is counted (`Inbox.seq_anomalies`). The torso state has one producer, the estimator, and
+# is used as this tick's q1, so there a repeat or a step back is also refused (never used, as if it had not
+# come): a replayed or frozen estimator goes TORSO_STALE within 20 ms. (A lockstep robot's resend of a tick
+# the node has answered repeats its torso state too; the node has it already.) An estimator that restarted
+# is followed again after SEQ_RESYNC in-order messages of its new sequence. Commands may come from several
+# senders (the torso computer, an operator's `spine-cmd --mode estop` starting at seq 0), so they are
+# counted, never refused.
+SEQ_RESYNC = 3
 
 
 class Inbox:
@@ -67,6 +81,11 @@ class Inbox:
         self.dropped: dict[str, int] = dict.fromkeys(_INCOMING, 0)  # superseded before the node looked
         self.rejected: dict[str, int] = dict.fromkeys(_INCOMING, 0)  # refused, per channel
         self._foreign: set[str] = set()  # channels with a refused foreign payload since the last take
+        # per channel: {"backwards": n, "repeat": n, "jump": n} (see SEQ_RESYNC)
+        self.seq_anomalies: dict[str, dict[str, int]] = {
+            ch: {"backwards": 0, "repeat": 0, "jump": 0} for ch in _INCOMING}
+        self._last_seq: dict[str, int] = {}
+        self._torso_resync: tuple[int, int] | None = None  # (last seq of a new torso sequence, its length)
 
     def offer_bytes(self, channel: str, data: bytes) -> None:
         decode = _INCOMING.get(channel)
@@ -86,6 +105,8 @@ class Inbox:
             self.rejected[channel] += 1
             self.rejects.append(exc)
             return
+        if not self._seq_ok(channel, msg.seq):
+            return
         if channel == channels.TORSO_STATE:
             self.dropped[channel] += self.torso is not None
             self.torso = msg
@@ -96,6 +117,29 @@ class Inbox:
         else:
             self.dropped[channel] += self.heartbeat is not None
             self.heartbeat = msg
+
+    def _seq_ok(self, channel: str, seq: int) -> bool:
+        """Count a seq that goes back, repeats or jumps; refuse a torso state's repeat or step back."""
+        last = self._last_seq.get(channel)
+        if last is None or seq > last:
+            if last is not None and seq != last + 1:
+                self.seq_anomalies[channel]["jump"] += 1  # messages lost (UDP) or skipped: still used
+            self._last_seq[channel] = seq
+            if channel == channels.TORSO_STATE:
+                self._torso_resync = None
+            return True
+        counts = self.seq_anomalies[channel]
+        counts["repeat" if seq == last else "backwards"] += 1
+        if channel != channels.TORSO_STATE:
+            self._last_seq[channel] = seq
+            return True
+        run = self._torso_resync  # a restarted estimator: followed after SEQ_RESYNC in-order messages
+        run = (seq, run[1] + 1) if run is not None and seq == run[0] + 1 else (seq, 1)
+        self._torso_resync = run
+        if run[1] >= SEQ_RESYNC:
+            self._last_seq[channel], self._torso_resync = seq, None
+            return True
+        return False  # not used, like no message: a frozen or replayed estimator goes TORSO_STALE
 
     def take(self) -> tuple:
         """(torso, command, heartbeat, reset requested, rejects) since the last take; None if none."""
@@ -121,9 +165,28 @@ class NodeIO:
     def __init__(self) -> None:
         self.inbox = Inbox()
         self.torso_waits = 0  # lockstep ticks whose torso state came after their feedback (await_torso)
+        self.instance = 0  # this node's heartbeat instance (set by SpineNode); others heard go to `peers`
+        self.peers: dict[int, str] = {}  # other spine nodes heard on SPARC_HEARTBEAT_NODE: instance -> sender
+
+    def offer_node_heartbeat(self, channel: str, data: bytes) -> None:
+        """A heartbeat on the node channel: this node's own (LCM loops it back) or another node's."""
+        try:
+            hb = codec.decode_heartbeat(data, channel)
+        except MessageError:
+            return
+        if hb.instance != self.instance and hb.instance not in self.peers:
+            self.peers[hb.instance] = hb.sender
+            log.error("another spine node is on this LCM URL: %r, instance %#x (this one: %#x)", hb.sender,
+                      hb.instance, self.instance)
 
     def poll(self) -> None:
         """Move everything that has arrived into the inbox without blocking."""
+
+    def drain(self) -> int:
+        """Dispatch everything queued (DRAIN_MAX_MESSAGES, DRAIN_BUDGET_S at most); returns how many.
+        In-process delivery is synchronous: nothing is queued."""
+        self.poll()
+        return 0
 
     def await_torso(self, seq: int, timeout_s: float) -> bool:
         """Whether the inbox holds a torso state of tick `seq` or later, waiting up to `timeout_s` for it
@@ -204,6 +267,7 @@ class LcmNodeIO(NodeIO):
         super().__init__()
         self.lc = lc
         self._subs = [lc.subscribe(ch, self.inbox.offer_bytes) for ch in _INCOMING]
+        self._subs.append(lc.subscribe(channels.HEARTBEAT_NODE, self.offer_node_heartbeat))
         for sub in self._subs:
             sub.set_queue_capacity(QUEUE_CAPACITY)
         self.publish_errors = 0
@@ -218,6 +282,30 @@ class LcmNodeIO(NodeIO):
             if time.perf_counter() >= deadline:
                 break
         self.handled_last_poll = n
+
+    def listen_for_nodes(self, duration_s: float) -> dict[int, str]:
+        """Dispatch for `duration_s` (before this node publishes anything) and return the other nodes heard:
+        a node that starts beside a running one refuses to (spine-node exit 2)."""
+        deadline = time.perf_counter() + duration_s
+        while True:
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                return dict(self.peers)
+            try:
+                self.lc.handle_timeout(max(1, round(left * 1e3)))
+            except OSError:  # the wait interrupted by a signal (EINTR): the caller checks for a stop next
+                return dict(self.peers)
+
+    def drain(self) -> int:
+        """Dispatch everything that waited in LCM's queues (see DRAIN_MAX_MESSAGES, DRAIN_BUDGET_S)."""
+        deadline = time.perf_counter() + DRAIN_BUDGET_S
+        n = 0
+        while n < DRAIN_MAX_MESSAGES and self.lc.handle_timeout(0) > 0:
+            n += 1
+            if time.perf_counter() >= deadline:
+                break
+        self.handled_last_poll = n
+        return n
 
     def await_torso(self, seq: int, timeout_s: float) -> bool:
         """LCM keeps the order of one socket only: with `mpudpm` (a socket per channel) a tick's motor

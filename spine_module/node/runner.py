@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
+import secrets
 import threading
 import time
 from collections.abc import Callable
@@ -23,6 +24,7 @@ import numpy as np
 
 from spine_module import params, safety
 from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
+from spine_module.control.gain_limits import unstable_gains
 from spine_module.messages import Fault, Heartbeat, MessageError, Mode, SpineCommand, SpineState, TorsoState
 from spine_module.messages import channels as ch
 from spine_module.messages.types import MODES
@@ -41,6 +43,8 @@ _BAD_BY_CHANNEL = {ch.TORSO_STATE: int(Fault.BAD_TORSO), ch.SPINE_COMMAND: _BAD_
 _NOISY = Fault.TORQUE_CLAMPED | Fault.JOINT_LIMIT
 _NOISY_BITS = int(_NOISY)
 _MOTOR, _CONTROLLER, _BUS = int(Fault.MOTOR), int(Fault.CONTROLLER), int(Fault.BUS)
+_NODE_CONFLICT = int(Fault.NODE_CONFLICT)
+_GAIN_MODES = frozenset((Mode.IMPEDANCE, Mode.PD))  # commands whose k and d the law renders
 _JOINT_LIMIT, _TORQUE_CLAMPED = int(Fault.JOINT_LIMIT), int(Fault.TORQUE_CLAMPED)
 _IMPEDANCE, _PD = int(Mode.IMPEDANCE), int(Mode.PD)
 _DAMPING, _JOINT_TORQUE = int(Mode.DAMPING), int(Mode.JOINT_TORQUE)
@@ -69,6 +73,8 @@ class NodeConfig:
     name: str = "spine-node"
     jitter_window: int = 1000
     bad_hold_s: float = 0.1  # a BAD_* fault bit stays set this long after the last rejected message
+    # drawn once per node: its heartbeats carry it, so two nodes on one URL tell each other apart (never 0)
+    instance: int = field(default_factory=lambda: secrets.randbits(62) | 1)
 
 
 class _RateLimitedLog:
@@ -90,6 +96,7 @@ class SpineNode:
         self.bus = bus
         self.io = io
         self.cfg = config if config is not None else NodeConfig()
+        io.instance = self.cfg.instance
         # safety state as plain values (`safety.supervise_values`); the `safety` property shows it as a
         # SafetyState
         self._sv = safety.Supervised()
@@ -124,6 +131,10 @@ class SpineNode:
         self._set_ctrl: object | None = None  # controller whose gains and target were last set, and from what
         self._set_for: tuple = ()
         self._limits = safety.TorqueLimits.from_config(self.cfg.safety)  # the output stage's numbers
+        self._polled_at: float | None = None  # node time the inputs were last polled (tick or start-up drain)
+        self._law_clamped = False  # this tick's controller clamped a torque itself
+        self.stalls = 0  # ticks after a gap longer than the feedback deadline (their inputs drained, stale)
+        self.drained_at_start = 0  # inputs queued before the first tick, dropped unused
 
     @property
     def safety(self) -> safety.SafetyState:
@@ -185,6 +196,44 @@ class SpineNode:
     def _flag_bad(self, bit: Fault | int, now: float) -> None:
         self._bad_until[int(bit)] = now + self.cfg.bad_hold_s
 
+    def drain_inputs(self, now: float) -> int:
+        """Before the first real-time tick: drop everything queued since the transport opened (torso states,
+        commands and feedback up to seconds old at start-up); the node then hears only what arrives from
+        `now` on. Returns how many messages were dropped (also in `drained_at_start`)."""
+        io = self.io
+        io.drain()
+        io.inbox.take()
+        dropped = io.inbox.received  # no tick has looked at any: every input so far is dropped
+        while True:  # newest-wins buses keep one feedback; a queue (LCM) may hold many
+            try:
+                fb = self.bus.receive(0.0)
+            except MotorBusError:
+                break
+            if fb is None:
+                break
+            dropped += 1
+        self._polled_at = now
+        self.drained_at_start = dropped
+        return dropped
+
+    def _poll_inputs(self, now: float) -> float:
+        """Poll the inputs; returns the start of the gap since the last poll. After a gap longer than
+        the feedback deadline (a stalled node, a late tick) everything queued is drained and an input taken
+        now may have waited the whole gap: it counts as arrived at the gap's start, so an input whose
+        deadline is shorter than the gap raises its stale fault this tick instead of being used as fresh."""
+        prev = self._polled_at
+        self._polled_at = now
+        if prev is None or now - prev - safety.EPS_S <= self.cfg.safety.feedback_deadline_s:
+            self.io.poll()
+            return now
+        self.io.drain()
+        self.stalls += 1
+        return prev
+
+    @staticmethod
+    def _arrived(now: float, gap_start: float, deadline_s: float) -> float:
+        return now if now - gap_start - safety.EPS_S <= deadline_s else gap_start
+
     # --- one tick -----------------------------------------------------------------------------------
     def tick(self, now: float, feedback: MotorFeedback | None, wall_s: float | None = None) -> SpineState:
         """Run one control step at node time `now` with the feedback received for it (None: none new).
@@ -195,10 +244,12 @@ class SpineNode:
         stats.mark(time.monotonic() if wall_s is None else wall_s)
         self.last_now = now
         cfg = self.cfg
-        if feedback is not None:
-            self._accept_feedback(feedback, now)
+        scfg = cfg.safety
         io = self.io
-        io.poll()
+        gap_start = self._poll_inputs(now)
+        arrived = self._arrived
+        if feedback is not None:
+            self._accept_feedback(feedback, arrived(now, gap_start, scfg.feedback_deadline_s))
         torso, command, heartbeat, reset, rejects = io.inbox.take()
         for rej in rejects:
             self._flag_bad(_BAD_BY_CHANNEL.get(rej.channel, _BAD_COMMAND), now)
@@ -207,15 +258,25 @@ class SpineNode:
             self._ratelog(f"reject:{rej.channel}.{rej.field}", now, logging.WARNING, "rejected %s", rej)
         if torso is not None:
             self.torso = torso
-            self._rx_torso = now
+            self._rx_torso = arrived(now, gap_start, scfg.torso_deadline_s)
+        if command is not None and command.mode in _GAIN_MODES:
+            why = unstable_gains(command.k, command.d, cfg.rate_hz)
+            if why is not None:  # a loop that would chatter at full torque: refused, the last command stays
+                self._flag_bad(_BAD_COMMAND, now)
+                self.rejected = f"{ch.SPINE_COMMAND}.k/d: {why}"
+                self.rejected_count += 1
+                self._ratelog("reject:gains", now, logging.WARNING, "rejected %s", self.rejected)
+                command = None
         if command is not None:
             self.command = command
-            self._rx_command = now
+            self._rx_command = arrived(now, gap_start, scfg.command_deadline_s)
         if heartbeat is not None:
-            self._rx_heartbeat = now
+            self._rx_heartbeat = arrived(now, gap_start, scfg.heartbeat_deadline_s)
 
         command = self.command
         requested = command.mode if command is not None else _MODE_DISABLED
+        if io.peers and not self._sv.latched & _NODE_CONFLICT:  # another node commands these motors too
+            self._sv = self._sv._replace(latched=self._sv.latched | _NODE_CONFLICT)
         self._sv = sv = _supervise_values(
             self._sv, now, _tuple_new(_Receipts, (self._rx_torso, self._rx_feedback, self._rx_command,
                                                   self._rx_heartbeat)), int(requested), reset, cfg.safety)
@@ -223,8 +284,9 @@ class SpineNode:
             sv.enable
         mode = MODES[mode_i]
         # fault bits as a plain int inside the tick (IntFlag arithmetic costs ~1 us per operation)
-        if self._pending_bus_fault:
-            faults |= self._pending_bus_fault
+        bus_fault = self._pending_bus_fault  # the bus refused this tick's feedback: zero torque this tick
+        if bus_fault:
+            faults |= bus_fault
             self._pending_bus_fault = 0
         if self._bad_until:
             for bit, until in self._bad_until.items():
@@ -246,10 +308,17 @@ class SpineNode:
         # (disabled, E-stop, a failed controller) send zeros
         limited = True
         if mode_i == _IMPEDANCE or mode_i == _PD:
+            self._law_clamped = False
             tau_l, x, dx, ok = self._control(mode_i, scale, default_gains, q, dq)
+            if self._law_clamped:
+                faults |= _TORQUE_CLAMPED
             if not ok:
                 faults |= _CONTROLLER
                 limited = False
+            elif scale == 0.0:  # the first tick of a soft start (start-up, after a latch or a stale spell)
+                # commands zero torque, gravity and feed-forward included; K and D then ramp from 0. (Ramping
+                # the whole law instead let the bench spine sag and whip to 30 rad/s over CAN: not done.)
+                tau_l = [0.0, 0.0, 0.0]
         else:
             if fb is not None and math.isfinite(q1) and math.isfinite(dq1):
                 x, dx = self.ctrl.task_state(q, dq)
@@ -265,7 +334,7 @@ class SpineNode:
                 faults |= _JOINT_LIMIT
             if clamped:
                 faults |= _TORQUE_CLAMPED
-            tau = np.array((a, b, c)) if enable else np.zeros(3)
+            tau = np.array((a, b, c)) if enable and not bus_fault else np.zeros(3)
         else:
             tau = np.zeros(3)
         if x is None:
@@ -281,11 +350,17 @@ class SpineNode:
             faults |= _BUS
 
         hb_next = self._hb_next
-        if hb_next is None or now >= hb_next or now < hb_next - 10 * cfg.heartbeat_period_s:
-            self._hb_next = now + cfg.heartbeat_period_s
+        period = cfg.heartbeat_period_s
+        if hb_next is None or now >= hb_next or now < hb_next - 10 * period:
+            # on its own schedule (next = previous slot + period), not "a period after the tick that sent
+            # it": late ticks then do not stretch every period (90-95 Hz measured instead of 100); a node far
+            # behind (or a clock that went back) starts a new schedule from now
+            self._hb_next = (now + period if hb_next is None or now >= hb_next + period
+                             or now < hb_next - 10 * period else hb_next + period)
             sv = self._sv
             io.publish_heartbeat(Heartbeat(sender=cfg.name, fault=bool(sv.latched),
-                                           reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq))
+                                           reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq,
+                                           instance=cfg.instance))
             self._hb_seq += 1
 
         if faults != self._last_faults:
@@ -348,6 +423,9 @@ class SpineNode:
                           out.error)
             return [0.0, 0.0, 0.0], x, dx, False
         tau = _floats(out.tau)
+        sat = getattr(out, "saturated", None)  # the law's own clamp cut a torque: TORQUE_CLAMPED as well
+        if sat is not None:
+            self._law_clamped = bool(sat[0] or sat[1] or sat[2]) if len(sat) == 3 else bool(np.any(sat))
         if not default_gains:
             ff = _floats(c.tau_ff)
             if len(tau) == 3 == len(ff):
@@ -405,7 +483,9 @@ class SpineNode:
             self._ratelog("tick", now, logging.ERROR, "control tick failed (%d so far), motors stopped: %r",
                           self.tick_errors, exc)
             try:
-                self.bus.send(MotorCommand.zero(3, enable=False))
+                stop = MotorCommand.zero(3, enable=False)
+                stop.seq, stop.stamp_s = self.seq, now  # in the sequence, like every command of the node
+                self.bus.send(stop)
             except Exception as exc2:  # the bus is broken too: nothing more to do this tick
                 self._ratelog("tick-bus", now, logging.ERROR, "could not stop motors: %r", exc2)
             self.seq += 1
@@ -425,7 +505,8 @@ class SpineNode:
         now = self.last_now if self.last_now is not None else 0.0
         sv = self._sv
         self.io.publish_heartbeat(Heartbeat(sender=self.cfg.name, fault=bool(sv.latched),
-                                            reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq))
+                                            reset_count=sv.reset_count, stamp_s=now, seq=self._hb_seq,
+                                            instance=self.cfg.instance))
         self._hb_seq += 1
 
     def stop(self) -> None:
@@ -496,6 +577,7 @@ def run_realtime(node: SpineNode, duration_s: float | None = None,
     """Fixed-rate loop at `node.cfg.rate_hz` on the monotonic clock: each tick drains the bus (newest
     feedback wins), then steps. Stops after `duration_s` or when `stop` is set."""
     stopped = _stopper(stop)
+    node.drain_inputs(0.0)  # what queued before the loop starts is old: dropped, counted; node time 0 = now
     clock = RealTimeClock(node.cfg.rate_hz)
     t_wall0 = time.monotonic()
     ticks = 0

@@ -141,3 +141,53 @@ def test_spine_node_motors_can_cli_sigterm(tmp_path):
     assert all(n >= 1 for n in res["stops_after"].values()), res
     assert json.loads(res["summary"])["ticks"] > 0
     assert sum(1 for _ in can.LogReader(str(log))) > 300
+
+
+class _GlitchingReadout:
+    """The emulator's plant with one motor's readout off by (dq_rad, dv_rad_s) while `active`: the motor's own
+    feedback frames carry the bad encoder or velocity reading (its torque law and the physics do not)."""
+
+    def __init__(self, inner, motor_id: int, dq_rad: float, dv_rad_s: float) -> None:
+        self.inner, self.motor_id, self.dq_rad, self.dv_rad_s = inner, motor_id, dq_rad, dv_rad_s
+        self.active = False
+
+    def read(self, motor_id: int) -> tuple[float, float]:
+        q, v = self.inner.read(motor_id)
+        if self.active and motor_id == self.motor_id:
+            return q + self.dq_rad, v + self.dv_rad_s
+        return q, v
+
+    def step(self, torques: dict[int, float], dt: float) -> None:
+        self.inner.step(torques, dt)
+
+
+@pytest.mark.parametrize("name,motor,dq,dv", [
+    ("+2 rad encoder glitch on q2", 1, 2.0, 0.0),
+    ("0.5 rad encoder glitch on q3, inside its range", 2, 0.5, 0.0),
+    ("29 rad/s velocity spike on q3", 2, 0.0, 29.0),
+])
+def test_node_never_drives_on_an_implausible_frame(name, motor, dq, dv):
+    """Issue 31: one bad feedback reading (for 50 ms) gave up to +-12 N*m with no fault. Now the backend
+    latches it: from the first bad frame on the node sends zero torque and reports BUS."""
+    k0 = 300
+    glitch: list[_GlitchingReadout] = []
+
+    def on_tick(k, emu):
+        with emu.lock:
+            if not glitch:
+                glitch.append(_GlitchingReadout(emu.plant, motor, dq, dv))
+                emu.plant = glitch[0]
+            glitch[0].active = k0 <= k < k0 + 50  # in the reply to command k: tick k + 1 reads it
+    run = run_node_over_can(static_push_script(500.0, cycles=1.0), n_ticks=450, on_tick=on_tick)
+    # the emulator answers command k0 - 1 in its own thread, before or after on_tick(k0): the first bad
+    # frame reaches tick k0 or k0 + 1
+    before, around = run.states[k0 - 50:k0], run.states[k0:]
+    assert all(s.mode == Mode.IMPEDANCE and not s.faults & Fault.BUS for s in before)
+    first = next(i for i, s in enumerate(around) if s.faults & Fault.BUS)
+    assert first <= 2, first
+    for s in around[:first]:  # ticks before the latch ran on good feedback
+        assert abs(s.dq[motor]) < 5.0 and abs(s.q[motor] - before[-1].q[motor]) < 0.05, name
+    after = around[first:]
+    peak = max(float(np.max(np.abs(s.tau_cmd))) for s in after)
+    assert peak == 0.0, f"{name}: {peak} N*m after the glitch"
+    assert all(s.faults & Fault.BUS for s in after), name

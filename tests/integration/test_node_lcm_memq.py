@@ -41,7 +41,11 @@ def test_lockstep_over_lcm_memq_equals_inprocess():
     assert np.max(np.abs(q_lcm - q_ref)) <= 1e-12
     assert len(port.states) == N == len(ref_states)
     np.testing.assert_array_equal([s.tau_cmd for s in port.states], [s.tau_cmd for s in ref_states])
-    assert robot.unanswered == 0 and not any(s.faults & ~Fault.JOINT_LIMIT for s in port.states[1:])
+    # the law's own clamp cuts the torque on some ticks of this fast (0.3 s) push-pull: TORQUE_CLAMPED since
+    # issue 31 (before, only the output stage's clamp raised it, and it never saw a torque beyond the limit)
+    noisy = Fault.JOINT_LIMIT | Fault.TORQUE_CLAMPED
+    assert robot.unanswered == 0 and not any(s.faults & ~noisy for s in port.states[1:])
+    assert [s.faults for s in port.states] == [s.faults for s in ref_states]
 
 
 def test_lcm_bus_rejects_malformed_feedback_by_field():

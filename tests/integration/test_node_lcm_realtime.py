@@ -37,10 +37,14 @@ NODE=$!
     --out {tmp_path} > /dev/null 2> {tmp_path}/robot.err
 kill -TERM $NODE
 wait $NODE
+echo $? > {tmp_path}/node.rc
 """
     r = run_in_netns(script, ROOT)
     assert r.returncode == 0, r.stderr + (tmp_path / "node.err").read_text()
     node = json.loads((tmp_path / "node.json").read_text())
+    # the robot ends first: a node still running 100 ms later has latched HEARTBEAT_LOST and says so (exit 3)
+    node_rc = int((tmp_path / "node.rc").read_text())
+    assert node_rc == 0 or (node_rc == 3 and node["ended_latched"] == "HEARTBEAT_LOST"), (node_rc, node)
     robot = json.loads((tmp_path / "summary.json").read_text())
     a = dict(np.load(tmp_path / "bench_robot.npz"))
     running = (a["node_mode"] == Mode.IMPEDANCE) & (a["node_faults"] == Fault.NONE)

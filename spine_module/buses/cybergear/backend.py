@@ -10,15 +10,25 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from spine_module.buses.cybergear.config import load_config
+from spine_module.buses.cybergear.config import ConfigError, load_config
 from spine_module.buses.cybergear.driver import CanMotorBus
 
 
 def make_bus(*, lc=None, config_path: str | Path | None = None, interface: str = "socketcan",
              channel: str = "can0", bitrate: int | None = None,
-             log_path: str | Path | None = None) -> CanMotorBus:
+             log_path: str | Path | None = None, rate_hz: float | None = None) -> CanMotorBus:
     """CyberGears as `config_path` (default: the packaged motors.toml) describes them, on python-can's
-    `interface`/`channel` at `bitrate` bit/s (default: the config's); `log_path` records every frame."""
+    `interface`/`channel` at `bitrate` bit/s (default: the config's); `log_path` records every frame.
+
+    `rate_hz`: the node's actual control rate. The config's timeouts (`can_timeout_s`, `silent_timeout_s`:
+    at least two control periods) and its bus-load check are judged at this rate, not at the file's
+    `rate_hz`, which only stands in for it when no node runs (ConfigError naming the file and the rate)."""
     cfg = load_config(config_path)
+    if rate_hz is not None and rate_hz != cfg.rate_hz:
+        try:
+            cfg = cfg.with_(rate_hz=float(rate_hz))
+        except ValueError as e:
+            where = config_path if config_path is not None else "the packaged motors.toml"
+            raise ConfigError(f"{where}: at the node's --rate {rate_hz:g} Hz: {e}") from None
     return CanMotorBus(cfg, interface=interface, channel=channel, bitrate=bitrate or cfg.bitrate,
                        log_path=log_path)

@@ -35,10 +35,11 @@ from pathlib import Path
 import can
 import numpy as np
 
-from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
+from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback, MotorSetupError
 from spine_module.buses.cybergear import protocol as P
 from spine_module.buses.cybergear.busload import bus_load
 from spine_module.buses.cybergear.config import CyberGearConfig, load_config
+from spine_module.buses.cybergear.plausibility import DEFAULT_LIMITS, PlausibilityLimits, Reading, implausible
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +50,10 @@ CAN_ERR_BUSOFF = 0x40  # SocketCAN error-frame class bit for bus-off
 # node that has not started controlling by then gets its motors stopped (its first send enables them again)
 HOLD_PERIOD_MAX_S = 0.01
 HOLD_MAX_S = 2.0
+# every motor silent (cable, bus or host gone) is a lost bus after this long, or two silent_timeout_s if
+# longer; one motor silent while the others answer is lost after silent_timeout_s (CanMotorBus._silent).
+# The motors' own CAN timeout (50 ms shipped) stops them meanwhile
+SILENT_ALL_MIN_S = 0.5
 
 
 @dataclass
@@ -64,8 +69,12 @@ class _JointState:
     stamp_s: float = 0.0
     frames: int = 0
     fresh: bool = False
-    uid: bytes | None = None
+    uid: bytes | None = None  # MCU uid of the first get-id reply since start()
+    uids: set[bytes] = field(default_factory=set)  # every uid that answered as this id since start()
+    reading: Reading | None = None  # last plausible feedback (plausibility.py)
+    implausible: bool = False  # a plausibility fault is latched for this motor (one message, not one a frame)
     unanswered_since: float | None = None  # monotonic time of the oldest command without a reply
+    unanswered_wall: float | None = None  # the same on the frames' clock (time.time(), Message.timestamp)
     run_seen: bool = False  # reported RUN since the last enable
     params: dict[int, tuple[bool, float | int]] = field(default_factory=dict)  # index -> (ok, value) read
 
@@ -91,7 +100,8 @@ class CanMotorBus(MotorBus):
                  interface: str | None = None, channel: str | None = None, bitrate: int | None = None,
                  log_path: str | Path | None = None, fault_raises: bool = True,
                  clock: Callable[[], float] = time.monotonic,
-                 stamp_clock: Callable[[], float] | None = None, hold_max_s: float = HOLD_MAX_S) -> None:
+                 stamp_clock: Callable[[], float] | None = None, hold_max_s: float = HOLD_MAX_S,
+                 plausibility: PlausibilityLimits = DEFAULT_LIMITS) -> None:
         if config is None or isinstance(config, (str, Path)):
             config = load_config(config)
         self.config = config
@@ -100,7 +110,12 @@ class CanMotorBus(MotorBus):
         self._ranges = config.ranges
         self._clock = clock  # timeouts
         self._stamp_clock = stamp_clock or clock  # MotorFeedback.stamp_s (a simulation may supply its time)
+        # the plausibility checks' time between two frames of a motor: the frames' own receive stamps (the
+        # adapter's or the kernel's), which a host that processes bunched frames late does not squeeze;
+        # a simulation's stamp clock when one is given (its motors move in simulated time)
+        self._frame_time_from_msg = stamp_clock is None
         self.fault_raises = fault_raises
+        self.plausibility = plausibility
         self._own_bus = bus is None
         if bus is None:
             if interface is None or channel is None:
@@ -112,6 +127,7 @@ class CanMotorBus(MotorBus):
         self._cond = threading.Condition(self._lock)
         self._stop_lock = threading.Lock()  # one stop sequence at a time; shutdown waits for it
         self._state = [_JointState() for _ in config.joints]
+        self._latest_rx_wall = 0.0  # Message.timestamp of the newest frame from a configured motor
         # latched faults: raised by every receive() (so the node's feedback goes stale and it drops to its
         # safe state) and by send() with enable=True, until start() clears them with the motors' faults
         self._errors: list[str] = []
@@ -162,17 +178,31 @@ class CanMotorBus(MotorBus):
             return
         with self._cond:
             self.rx_frames += 1
+            if frame.motor_id in self._ids:  # the newest frame from our motors, on the frames' own clock
+                self._latest_rx_wall = max(self._latest_rx_wall, msg.timestamp or time.time())
             i = self._ids.get(frame.motor_id)
             if i is None:  # a DeviceId reply from an unconfigured motor
                 self.ignored["unconfigured motor"] += 1
                 return
             s, j = self._state[i], self.config.joints[i]
             if isinstance(frame, P.Feedback):
-                s.q = j.q_from_motor(frame.position)
-                s.dq = j.dq_from_motor(frame.velocity)
-                s.tau = j.tau_from_motor(frame.torque)
+                q, dq, tau, stamp = (j.q_from_motor(frame.position), j.dq_from_motor(frame.velocity),
+                                     j.tau_from_motor(frame.torque), self._stamp_clock())
+                t_frame = msg.timestamp if self._frame_time_from_msg and msg.timestamp else stamp
+                if self._started and self.fault_raises:
+                    why = implausible(j.name, j.gear_ratio, self.config.limit_torque_nm, s.reading, q, dq,
+                                      tau, t_frame, frame.velocity, self.plausibility)
+                    if why is not None:  # never handed to the node: the last plausible reading stays
+                        if not s.implausible:
+                            s.implausible = True
+                            self._fault(f"implausible feedback from motor {j.name} (CAN id {j.can_id}): "
+                                        f"{why}")
+                        self._cond.notify_all()
+                        return
+                s.q, s.dq, s.tau = q, dq, tau
+                s.reading = Reading(q, dq, t_frame)
                 s.temperature_c, s.mode, s.fault_bits = frame.temperature_c, frame.mode, frame.fault_bits
-                s.stamp_s, s.fresh, s.unanswered_since = self._stamp_clock(), True, None
+                s.stamp_s, s.fresh, s.unanswered_since, s.unanswered_wall = stamp, True, None, None
                 s.frames += 1
                 if frame.fault_bits and self.fault_raises and self._started:
                     self._fault(f"motor {j.name} (CAN id {j.can_id}) reports "
@@ -190,7 +220,13 @@ class CanMotorBus(MotorBus):
                 elif frame.warning_value:
                     log.warning("motor %s warning %#x", j.name, frame.warning_value)
             elif isinstance(frame, P.DeviceId):
-                s.uid = frame.uid
+                if s.uid is None:
+                    s.uid = frame.uid
+                elif frame.uid != s.uid and frame.uid not in s.uids and self._started:
+                    self._fault(f"motor {j.name} (CAN id {j.can_id}): a get-id reply from MCU uid "
+                                f"{frame.uid.hex()}, not the handshake's {s.uid.hex()}: two motors answer "
+                                "as one id")
+                s.uids.add(frame.uid)
             elif isinstance(frame, P.ParamReadReply):
                 s.params[frame.index] = (frame.ok, frame.value)
             self._cond.notify_all()
@@ -237,6 +273,7 @@ class CanMotorBus(MotorBus):
         s = self._state[i]
         if s.unanswered_since is None:
             s.unanswered_since = now
+            s.unanswered_wall = time.time()
 
     def send(self, command: MotorCommand) -> None:
         """Encode one frame per motor and queue it without waiting. Raises MotorBusError on faults."""
@@ -324,9 +361,18 @@ class CanMotorBus(MotorBus):
 
     # --- receive -------------------------------------------------------------------------------------
     def _silent(self, now: float) -> list[str]:
+        """Motors lost: a command unanswered while another motor's frame came `silent_timeout_s` later (on
+        the frames' clock: a host that processes its queue late sees the replies in order, so its own stall
+        is no motor's silence), or unanswered for `silent_all_s` whatever else came (the bus or every
+        motor gone)."""
         out = []
+        timeout, latest = self.config.silent_timeout_s, self._latest_rx_wall
+        silent_all_s = max(SILENT_ALL_MIN_S, 2.0 * timeout)
         for s, j in zip(self._state, self.config.joints, strict=True):
-            if s.unanswered_since is not None and now - s.unanswered_since > self.config.silent_timeout_s:
+            if s.unanswered_since is None:
+                continue
+            others_later = s.unanswered_wall is not None and latest - s.unanswered_wall > timeout
+            if others_later or now - s.unanswered_since > silent_all_s:
                 out.append(f"{j.name} (CAN id {j.can_id})")
         return out
 
@@ -341,9 +387,9 @@ class CanMotorBus(MotorBus):
                 now = self._clock()
                 if self._started:
                     silent = self._silent(now)
-                    if silent:
-                        self.last_error = f"motor(s) stopped answering: {', '.join(silent)}"
-                        raise MotorBusError(self.last_error)
+                    if silent:  # latched: a motor that answers again is not driven until start()
+                        self._fault(f"motor(s) stopped answering: {', '.join(silent)}")
+                        self._raise_pending()
                 if deadline is not None and now >= deadline:
                     return None
                 wait = 0.01 if deadline is None else min(0.01, deadline - now)
@@ -387,6 +433,7 @@ class CanMotorBus(MotorBus):
                 self._errors.clear()
                 for s in self._state:
                     s.uid, s.fault_value, s.warning_value = None, 0, 0
+                    s.uids, s.reading, s.implausible = set(), None, False
             for j in cfg.joints:
                 self._send(P.encode_get_id(j.can_id, host))
             missing = self._wait_all(lambda s: s.uid is not None, timeout_s)
@@ -419,14 +466,32 @@ class CanMotorBus(MotorBus):
                 raise MotorBusError(f"motor(s) {', '.join(missing)} did not enable within {timeout_s:g} s"
                                     + (f" ({'; '.join(why)})" if why else ""))
             with self._cond:
+                self._refuse_doubles_and_strays()
                 self._errors.clear()
                 for s in self._state:
-                    s.unanswered_since = None
+                    s.unanswered_since = s.unanswered_wall = None
                 self._started = True
             self._start_hold()
         except BaseException:
             self.stop()
             raise
+
+    def _refuse_doubles_and_strays(self) -> None:  # caller holds the lock
+        """End of the handshake: two MCU uids answering as one id (MotorSetupError: fix the wiring, exit
+        2), or a motor whose first feedback is already implausible (outside its joint's range)."""
+        doubled = [f"CAN id {j.can_id} ({j.name}): MCU uids {', '.join(sorted(u.hex() for u in s.uids))}"
+                   for s, j in zip(self._state, self.config.joints, strict=True) if len(s.uids) > 1]
+        if doubled:
+            raise MotorSetupError(f"two motors answer as one id: {'; '.join(doubled)}. Give each motor its "
+                                  "own id (sparc-quad motors set-id) before running")
+        bad = []
+        for s, j in zip(self._state, self.config.joints, strict=True):
+            why = implausible(j.name, j.gear_ratio, self.config.limit_torque_nm, None, s.q, s.dq, s.tau,
+                              s.stamp_s, j.dq_to_motor(s.dq), self.plausibility)
+            if why is not None:
+                bad.append(f"{j.name} (CAN id {j.can_id}): {why}")
+        if bad:
+            raise MotorBusError(f"implausible feedback at start-up: {'; '.join(bad)}")
 
     # --- from enable to the first command ------------------------------------------------------------
     def _zero_frames(self) -> list[can.Message]:

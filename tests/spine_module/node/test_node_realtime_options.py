@@ -117,9 +117,10 @@ def test_node_summary_reports_the_period_histogram(tmp_path: Path) -> None:
                        capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert r.returncode == 0, r.stderr
     s = json.loads(out.read_text())
-    lock, wake, frozen = s["realtime"]  # in the order applied; the wake latency by default
+    # in the order applied; no wake-latency hold by default with the simulated (lcm) backend (issue 31:
+    # only --motors can holds it unless asked, tests/integration/test_node_cli_defaults.py)
+    lock, frozen = s["realtime"]
     assert lock == "memory locked (mlockall)" or lock.startswith("memory not locked: ")
-    assert wake.startswith(("CPU wake latency held at <= 0 us", "CPU wake latency not requested"))
     assert "frozen" in frozen
     p = s["period"]
     assert p["ticks_measured"] == s["ticks"] - 1

@@ -14,11 +14,11 @@ class heartbeat_t(object):
     the other's heartbeat for its deadline it latches a fault and commands zero torque until reset.
     """
 
-    __slots__ = ["utime", "seq", "sender", "fault", "reset_count"]
+    __slots__ = ["utime", "seq", "sender", "fault", "reset_count", "instance"]
 
-    __typenames__ = ["int64_t", "int64_t", "string", "boolean", "int64_t"]
+    __typenames__ = ["int64_t", "int64_t", "string", "boolean", "int64_t", "int64_t"]
 
-    __dimensions__ = [None, None, None, None, None]
+    __dimensions__ = [None, None, None, None, None, None]
 
     def __init__(self):
         self.utime = 0
@@ -51,6 +51,13 @@ class heartbeat_t(object):
         LCM Type: int64_t
         """
 
+        self.instance = 0
+        """
+        a random number the sender drew when it started (0: none). Two spine nodes on one URL hear each
+        other's: the one starting refuses to, the one running latches NODE_CONFLICT
+        LCM Type: int64_t
+        """
+
 
     def encode(self):
         buf = BytesIO()
@@ -64,7 +71,7 @@ class heartbeat_t(object):
         buf.write(struct.pack('>I', len(__sender_encoded)+1))
         buf.write(__sender_encoded)
         buf.write(b"\0")
-        buf.write(struct.pack(">bq", self.fault, self.reset_count))
+        buf.write(struct.pack(">bqq", self.fault, self.reset_count, self.instance))
 
     @staticmethod
     def decode(data: bytes):
@@ -83,13 +90,13 @@ class heartbeat_t(object):
         __sender_len = struct.unpack('>I', buf.read(4))[0]
         self.sender = buf.read(__sender_len)[:-1].decode('utf-8', 'replace')
         self.fault = bool(struct.unpack('b', buf.read(1))[0])
-        self.reset_count = struct.unpack(">q", buf.read(8))[0]
+        self.reset_count, self.instance = struct.unpack(">qq", buf.read(16))
         return self
 
     @staticmethod
     def _get_hash_recursive(parents):
         if heartbeat_t in parents: return 0
-        tmphash = (0x24233a3e69c9ccfc) & 0xffffffffffffffff
+        tmphash = (0xa38d1ab3748aeccd) & 0xffffffffffffffff
         tmphash  = (((tmphash<<1)&0xffffffffffffffff) + (tmphash>>63)) & 0xffffffffffffffff
         return tmphash
     _packed_fingerprint = None

@@ -44,6 +44,8 @@ class spine_state_t(object):
     """ waiting for the first feedback/torso/heartbeat """
     FAULT_MOTOR = 8192
     """ a motor reports a fault """
+    FAULT_NODE_CONFLICT = 16384
+    """ latched: another spine node's heartbeat on this URL (two nodes would both command the motors) """
 
     def __init__(self):
         self.utime = 0
