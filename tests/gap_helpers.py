@@ -64,3 +64,42 @@ def check_named(rep: dict, hidden) -> list[str]:
     if rep["verdict"] != "gap_closed":
         errs.append(f"verdict {rep['verdict']}")
     return errs
+
+
+def record_session(out: Path, robot_args: str, node_args: str = "--soft-start 0",
+                   timeout_s: float = 600.0) -> tuple[Path, str]:
+    """`spine-node --motors lcm` + `bench-robot ROBOT_ARGS` (lockstep) recorded by `lcm-logger`, as separate
+    processes on UDP multicast in a private network namespace (the harness of tests/conftest.py::lcm_run):
+    the robot starts once the logger has recorded a start mark, the logger stops once it has recorded an
+    end mark. Returns (the log, the processes' stderr tails)."""
+    import shlex
+    import sys
+
+    from spine_module.messages import channels
+    from tests import lcm_mark
+    from tests.node_netns import UDP_COUNTERS, lcm_tool, run_in_netns
+
+    root = Path(__file__).resolve().parents[1]
+    out.mkdir(parents=True, exist_ok=True)
+    py = shlex.quote(sys.executable)
+    url = shlex.quote(channels.DEFAULT_URL.replace("recv_buf_size=2097152", "recv_buf_size=4194304"))
+    log = out / "session.lcmlog"
+    script = f"""
+export PYTHONPATH={shlex.quote(str(root))}
+{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 5 {node_args} \
+    --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
+NODE=$!
+{shlex.quote(lcm_tool("lcm-logger"))} -q --lcm-url={url} -f {log} > {out}/logger.out 2>&1 &
+LOGGER=$!
+{py} -m tests.lcm_mark {url} {lcm_mark.START} {log} 2> {out}/mark.err
+{py} -m sparc_quad bench-robot --clock lockstep {robot_args} --out {out}/robot > {out}/robot.out \
+    2> {out}/robot.err
+wait $NODE
+{py} -m tests.lcm_mark {url} {lcm_mark.END} {log} 2>> {out}/mark.err
+kill -INT $LOGGER
+wait $LOGGER || true
+""" + UDP_COUNTERS.format(out=out)
+    r = run_in_netns(script, root, timeout_s=timeout_s)
+    logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
+    assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"
+    return log, logs

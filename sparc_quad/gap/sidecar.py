@@ -17,6 +17,11 @@ Keys (SI units):
         torque = k_t * current;
     `zero_offsets_rad` (optional, n_motors): motor encoder reading at joint zero:
         q_joint = G (q_motor - offset);
+- `resolution` (optional): the sensors' resolution, which sets the least noise floor the gap is measured
+  against (`gap/resolution_floor.py`): `{"q_rad", "dq_rad_s", "tau_nm", "f_ext_n"}`, each >= 0 (a missing
+  key: only the numbers' precision);
+- `friction_smoothing_rad_s` (optional, > 0): sign(dq) is tanh(dq / this) in the friction effects when no
+  nominal plant file says otherwise (the spine's eq. (4): 1 / beta);
 - `dq_filter` (optional): how dq is differentiated when the CSV has no dq columns:
   `{"window_s": w, "polyorder": p}` for a Savitzky-Golay derivative (zero-phase; default window
   DQ_WINDOW_S, polyorder 3).
@@ -35,6 +40,7 @@ from sparc_quad.gap.errors import TrialError
 REQUIRED_KEYS = ("urdf", "actuated_joints", "fixed_joints", "gravity", "rate_hz")
 TORQUE_KINDS = ("commanded", "measured")
 DQ_WINDOW_S = 0.01
+RESOLUTION_KEYS = ("q_rad", "dq_rad_s", "tau_nm", "f_ext_n")
 MAX_RATE_HZ = 1e6
 
 
@@ -127,6 +133,16 @@ def validate(side: Path, meta) -> dict:
             _number(side, "dq_filter.window_s", f["window_s"], positive=True, allow_zero=False)
         if "polyorder" in f and (not isinstance(f["polyorder"], int) or not 1 <= f["polyorder"] <= 6):
             raise TrialError(side, "dq_filter.polyorder must be an integer in 1..6", column="dq_filter")
+    if meta.get("resolution") is not None:
+        res = meta["resolution"]
+        if not isinstance(res, dict) or set(res) - set(RESOLUTION_KEYS):
+            raise TrialError(side, f"resolution must be an object with some of {list(RESOLUTION_KEYS)}, got "
+                                   f"{json.dumps(res)[:80]}", column="resolution")
+        for k, v in res.items():
+            _number(side, f"resolution.{k}", v, positive=True)
+    if meta.get("friction_smoothing_rad_s") is not None:
+        _number(side, "friction_smoothing_rad_s", meta["friction_smoothing_rad_s"], positive=True,
+                allow_zero=False)
     return out
 
 

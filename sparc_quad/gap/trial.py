@@ -31,7 +31,9 @@ from sparc_quad.gap.trialdata import Trial, robot_for
 __all__ = [
     "Trial",
     "TrialError",
+    "is_lcm_log",
     "load_lcm_log",
+    "load_lcm_segments",
     "load_sidecar",
     "load_trial",
     "robot_for",
@@ -98,10 +100,16 @@ def _kind(col: str) -> str:
     return col.split("_", 1)[0] if not col.startswith("tau_") else "tau"
 
 
+def is_lcm_log(path: str | Path) -> bool:
+    """An lcm-logger file by its name: `.lcm`, `.lcmlog`, or lcm-logger's default `lcmlog-...`."""
+    path = Path(path)
+    return path.suffix in (".lcm", ".lcmlog") or path.name.startswith("lcmlog")
+
+
 def load_trial(path: str | Path, robot: Robot | None = None) -> Trial:
     """Read and validate one trial. Raises TrialError naming file, row and column."""
     path = Path(path)
-    if path.suffix in (".lcm", ".lcmlog") or path.name.startswith("lcmlog"):
+    if is_lcm_log(path):
         return load_lcm_log(path)
     if not path.exists():
         raise TrialError(path, "file not found")
@@ -249,6 +257,13 @@ def save_trial(trial: Trial, path: str | Path, meta: dict) -> Path:
     np.savetxt(path, arr, delimiter=",", header=",".join(header), comments="", fmt="%.9g")
     sidecar_path(path).write_text(json.dumps(meta, indent=2) + "\n")
     return path
+
+
+def load_lcm_segments(path: str | Path, min_segment_s: float = lcm_log.MIN_SEGMENT_S) -> list[Trial]:
+    """A spine-node session's lcm-logger file as trials: one per segment between gaps of lost spine
+    states too long to fill in (`sparc_quad.gap.lcm_log`); refused only when no segment is
+    `min_segment_s` long."""
+    return lcm_log.load_segments(path, min_segment_s)
 
 
 def load_lcm_log(path: str | Path, decoder=None) -> Trial:
