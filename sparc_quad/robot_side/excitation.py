@@ -28,6 +28,7 @@ from spine_module.messages import Mode, SpineCommand
 
 # harmonics of the base frequency per task axis (x, z, theta): disjoint, so each axis has its own lines
 HARMONICS = ((1, 4, 7, 10), (2, 5, 8, 11), (3, 6, 9, 12))
+IDENT_DURATION_S = 20.0  # robot time of the default run (s): 4.5 periods of the 0.25 Hz base line
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,6 @@ class Excitation:
     push_period_s: float = 2.7
     start_s: float = 1.0
     fade_s: float = 1.0
-    seed: int = 0
 
     def __post_init__(self) -> None:
         if not 0 < self.base_hz <= 1.0:
@@ -99,7 +99,7 @@ class Excitation:
         return x, dx, ddx
 
 
-def ident_script(duration_s: float = 20.0, excitation: Excitation | None = None,
+def ident_script(duration_s: float = IDENT_DURATION_S, excitation: Excitation | None = None,
                  k: tuple[float, float, float] = tuple(P.K_DEFAULT),
                  d: tuple[float, float, float] = tuple(P.D_DEFAULT)) -> BenchScript:
     """The identification experiment as a robot-side script: impedance mode along `excitation`'s target
