@@ -103,3 +103,33 @@ wait $LOGGER || true
     logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
     assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"
     return log, logs
+
+
+def bench_truth_effects():
+    """The bench plant's own friction and rotor inertia (`sim.plant.PlantConfig()`, the truth a log of it
+    should give) as effect-library entries: Coulomb, the Stribeck excess, viscous, rotor inertia on every
+    actuated joint, and the tanh smoothing (1 / beta) of its friction law."""
+    from sparc_quad.effects.base import Effect
+    from sparc_quad.sim.plant import PlantConfig
+    from spine_module import params as P
+
+    cfg = PlantConfig()
+    f = cfg.friction
+    eff = []
+    for j in P.ACTUATED_JOINTS:
+        eff += [Effect("coulomb_friction", j, {"tau_c_nm": f.tau_c_nm}),
+                Effect("stribeck_friction", j, {"tau_s_nm": f.tau_s_nm - f.tau_c_nm,
+                                                 "dq_s_rad_s": f.dq_s_rad_s}),
+                Effect("viscous_friction", j, {"b_nm_s_rad": f.b_nm_s_rad}),
+                Effect("rotor_inertia", j, {"inertia_kg_m2": cfg.armature_kg_m2})]
+    return eff, 1.0 / f.beta_s_rad
+
+
+def write_bench_truth_plant(path: Path) -> Path:
+    """The bench plant's known friction and rotor inertia as a plant-effects file (`gap run --plant`)."""
+    from sparc_quad.effects.plant import PlantEffects
+    from spine_module import params as P
+
+    eff, eps = bench_truth_effects()
+    PlantEffects(list(P.ACTUATED_JOINTS), eff, eps).save(path)
+    return path
