@@ -18,7 +18,8 @@ One trial sample per `SPARC_SPINE_STATE` event (the node publishes one per contr
 Spine states travel over UDP: up to MAX_FILL_TICKS states lost in a row (seq jumps) are filled in linearly
 in the tick number and listed in `meta["source"]["filled_t"]`; at a longer gap the log is split into
 segments, each a trial of its own (`load_segments`; the gaps in `meta["source"]["gaps"]`). A segment
-shorter than MIN_SEGMENT_S is dropped (listed); only a log with no segment that long is refused. A seq or
+of a split log shorter than MIN_SEGMENT_S is dropped (listed); only a split log with no segment that long
+is refused. A seq or
 time that does not increase is an error naming the event.
 
 What each column was read from is in `meta["columns"]`; what the log lacks for identification (no load
@@ -122,15 +123,13 @@ def runs(seq: np.ndarray, max_fill: int = MAX_FILL_TICKS) -> list[tuple[int, int
 
 
 def _fill_short_nans(x: np.ndarray, max_fill: int = MAX_FILL_TICKS) -> tuple[np.ndarray, int] | None:
-    """`x` with NaN runs of at most `max_fill` samples between finite ones filled linearly (a load cell
-    read every few ticks); None when a longer run or a NaN at either end remains."""
+    """`x` with NaN runs of at most `max_fill` samples filled linearly (held at either end): a load cell
+    read every few ticks; None when a longer run remains."""
     bad = ~np.isfinite(x)
     if not bad.any():
         return x, 0
-    if bad[0] or bad[-1]:
-        return None
     d = np.diff(np.concatenate(([0], bad.astype(np.int8), [0])))
-    if np.max(np.nonzero(d == -1)[0] - np.nonzero(d == 1)[0]) > max_fill:
+    if bad.all() or np.max(np.nonzero(d == -1)[0] - np.nonzero(d == 1)[0]) > max_fill:
         return None
     k = np.arange(len(x))
     return np.interp(k, k[~bad], x[~bad]), int(bad.sum())
@@ -207,7 +206,8 @@ def load_segments(path: str | Path, min_segment_s: float = MIN_SEGMENT_S) -> lis
         log_.warning("%s: %d spine states missing between seq %d and %d (t %.4f-%.4f s; more than %d in a "
                      "row cannot be filled in): the log is split there", path, g["lost"], g["after_seq"],
                      g["before_seq"], g["t0_s"], g["t1_s"], MAX_FILL_TICKS)
-    kept = [(a, b) for a, b in pieces if seq[b - 1] - seq[a] + 1 >= min_ticks]
+    # a log without gaps loads whole, however short; pieces of a split log must each be long enough
+    kept = pieces if not gaps else [(a, b) for a, b in pieces if seq[b - 1] - seq[a] + 1 >= min_ticks]
     dropped = [{"first_seq": int(seq[a]), "last_seq": int(seq[b - 1]), "t0_s": float(t[a]),
                 "t1_s": float(t[b - 1])} for a, b in pieces if (a, b) not in kept]
     if not kept:
@@ -286,10 +286,10 @@ def _sources(robot, meta: dict, est: np.ndarray, cell: np.ndarray) -> tuple[list
     return lacks, columns
 
 
-def load(path: str | Path) -> Trial:
+def load(path: str | Path, min_segment_s: float = MIN_SEGMENT_S) -> Trial:
     """The log as one Trial; a log split by unfillable gaps into several segments is an error here that
     says so (`load_segments` and `gap run` take every segment)."""
-    trials = load_segments(path)
+    trials = load_segments(path, min_segment_s)
     if len(trials) > 1:
         gaps = trials[0].meta["source"]["gaps"]
         raise TrialError(path, f"{len(gaps)} gap(s) of more than {MAX_FILL_TICKS} lost spine states split "

@@ -37,6 +37,8 @@ def plain_session(tmp_path_factory):
 
 def test_bench_plant_friction_and_inertia_from_its_log(plain_session):
     rep, logs = plain_session
+    print(f"named {[(e['name'], e['joint'], e['params']) for e in rep['effects']]}"
+          f"; verdict {rep['verdict']}; gap/floor {rep['gap_after_over_floor']}; floor {rep['noise_floor']}")
     truth = {(e.name, e.joint): e.params for e in bench_truth_effects()[0]}
     named = {(e["name"], e["joint"]): e["params"] for e in rep["effects"]}
     errs = []
@@ -94,5 +96,7 @@ def test_hidden_effect_named_on_its_joint(tmp_path, name):
     joint = spec.split("joint=")[1].split(",")[0]
     value = float(spec.split(f"{key}=")[1].split(",")[0])
     named = [e for e in rep["effects"] if e["name"] == name and e["joint"] == joint]
+    print(f"{spec}: named {[(e['name'], e['joint'], e['params']) for e in rep['effects']]}; verdict "
+          f"{rep['verdict']}; gap/floor {rep['gap_after_over_floor']}")
     assert named, ([(e["name"], e["joint"], e["params"]) for e in rep["effects"]], rep["ambiguous"], logs)
     assert abs(named[0]["params"][key] / value - 1) <= HIDDEN_TOL, (named[0], value)
