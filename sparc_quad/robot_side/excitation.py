@@ -52,8 +52,13 @@ class Excitation:
             raise ValueError(f"offsets {self.max_offset} beyond (0.04 m, 0.04 m, 0.3 rad)")
         if not 0 <= self.push_n <= 10.0:
             raise ValueError(f"push {self.push_n} N outside [0, 10]")
+        object.__setattr__(self, "_lines", self._make_lines())
 
     def lines(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Per axis (frequencies Hz, amplitudes, phases rad); computed once (`_make_lines`)."""
+        return self._lines
+
+    def _make_lines(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Per axis (frequencies Hz, amplitudes, phases rad): equal velocity per line (amplitude ~ 1/f),
         Schroeder phases (low crest factor), scaled so the sum's peak is the axis's max offset."""
         out = []
@@ -68,7 +73,8 @@ class Excitation:
         return out
 
     def envelope(self, t: float, duration_s: float) -> tuple[float, float, float]:
-        """Fade in after start_s and out before the end: (w, dw/dt, d2w/dt2), raised cosine."""
+        """Fade in after start_s and out before the end: (w, dw/dt, d2w/dt2), a quintic smoothstep
+        (10x^3 - 15x^4 + 6x^5: the target's acceleration has no step where the fade starts or ends)."""
         up = (t - self.start_s) / self.fade_s
         down = (duration_s - t) / self.fade_s
         x = min(up, down)
@@ -77,9 +83,9 @@ class Excitation:
         if x >= 1:
             return 1.0, 0.0, 0.0
         s = 1.0 if up <= down else -1.0
-        w = 0.5 - 0.5 * math.cos(math.pi * x)
-        dw = s * 0.5 * math.pi / self.fade_s * math.sin(math.pi * x)
-        ddw = 0.5 * (math.pi / self.fade_s) ** 2 * math.cos(math.pi * x)
+        w = x**3 * (10 - 15 * x + 6 * x**2)
+        dw = s * 30 * x**2 * (1 - x) ** 2 / self.fade_s
+        ddw = 60 * x * (1 - x) * (1 - 2 * x) / self.fade_s**2
         return w, dw, ddw
 
     def target(self, t: float, duration_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
