@@ -20,7 +20,7 @@ from tests.gap_helpers import bench_truth_effects, record_session, write_bench_t
 from tests.node_netns import unshare_prefix
 
 needs_netns = pytest.mark.skipif(unshare_prefix() is None, reason="cannot create a network namespace here")
-pytestmark = [needs_netns, pytest.mark.netns]
+pytestmark = [needs_netns, pytest.mark.netns, pytest.mark.integration]  # processes over LCM
 IDENT = "--experiment ident --duration 20"
 TRUTH_TOL = 0.25
 HIDDEN_TOL = 0.15

@@ -31,6 +31,7 @@ def test_target_stays_in_its_limits_and_its_derivatives_are_consistent():
         Excitation(max_offset=(0.1, 0.0, 0.0))
 
 
+@pytest.mark.integration  # a whole simulated session, node and bench in process
 def test_identification_run_moves_every_joint_within_its_limits():
     """In process (node and bench in lockstep): every joint reverses often, reaches speed, stays clear of
     its limits' damping margin, and the node reports no fault once running."""
