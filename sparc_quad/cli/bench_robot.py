@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 
 import numpy as np
 
@@ -61,12 +62,12 @@ def plant_with_effects(args: argparse.Namespace):
         return base
     effects = _spine_effects(args.effect)
 
-    def no_peak(_j: int) -> float:
-        raise BadInput("--effect torque_saturation on the bench needs limit_nm (N*m): the run's peak torque "
-                       "is not known before it runs")
-
+    # a synth-only key that needs the run's peak torque (saturation's limit_fraction) resolves to NaN
     for e in effects:
-        kind(e.name).resolve_synth(e.params, P.ACTUATED_JOINTS.index(e.joint), no_peak)
+        kind(e.name).resolve_synth(e.params, P.ACTUATED_JOINTS.index(e.joint), lambda _j: math.nan)
+        if any(isinstance(v, float) and not math.isfinite(v) for v in e.params.values()):
+            raise BadInput(f"--effect {e.name} on the bench needs its value in N*m (e.g. limit_nm): the "
+                           "run's peak torque is not known before it runs")
     pe = PlantEffects(list(P.ACTUATED_JOINTS), effects, 1.0 / base.friction.beta_s_rad)
     if pe.model_effects():
         names = sorted({e.name for e in pe.model_effects()})

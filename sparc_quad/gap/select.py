@@ -100,6 +100,9 @@ class Search:
         self.kinds = [k for k in EFFECTS.values() if not (torque_kind == "measured" and k.ON_COMMAND)]
         self.names = [k.NAME for k in self.kinds if k.SINGLE]
         self.couplings = list(couplings)
+        # (name, joint) of the nominal plant's effects: a refinement (e.g. an asymmetric Coulomb level) may
+        # refine an effect the nominal plant already carries, not only one the search named
+        self.in_nominal = {(e.name, e.joint) for e in sel.lib.nominal.effects}
         self.log: list[dict] = []
 
     def joints_of(self, t: Term) -> list[int]:
@@ -208,7 +211,8 @@ class Search:
                 gain = without.bic - cur.bic  # what keeping t is worth
                 imp = self.improvement(cur, without, [t])
                 why = plausible(t, self.scale[t.joint], self.mass)
-                if why is None and t.kind.REFINES and (t.kind.REFINES, t.joint) not in {x.key for x in rest}:
+                if why is None and t.kind.REFINES and (t.kind.REFINES, t.joint) not in \
+                        {x.key for x in rest} | self.in_nominal:
                     why = f"refines a {t.kind.REFINES} no longer in the model"
                 if why is None and gain < BIC_MIN:
                     why = f"worth dBIC {-gain:.1f} > -{BIC_MIN} now"

@@ -71,7 +71,7 @@ def test_effect_option_puts_the_effect_in_the_plant():
 
 
 @pytest.mark.parametrize("spec, match", [
-    ("torque_saturation:joint=q3", "needs limit_nm"),
+    ("torque_saturation:joint=q3", r"needs its value in N\*m"),
     ("payload_mass:joint=q3", "changes the rigid bodies"),
     ("nosuch:joint=q3", "unknown effect"),
     ("torque_gain:joint=q1", "not an actuated joint"),
