@@ -42,6 +42,9 @@ TORQUE_KINDS = ("commanded", "measured")
 DQ_WINDOW_S = 0.01
 RESOLUTION_KEYS = ("q_rad", "dq_rad_s", "tau_nm", "f_ext_n")
 MAX_RATE_HZ = 1e6
+MAX_FIXED_RAD = 1e3  # a fixed joint's position (rad, or m for a prismatic one)
+MAX_GRAVITY_M_S2 = 1e3  # 100 g: beyond it the number is not a gravity
+MAX_DQ_WINDOW_S = 10.0
 
 
 def sidecar_path(csv_path: Path) -> Path:
@@ -52,6 +55,8 @@ def read_text(path: Path, what: str) -> str:
     """The file's text: UTF-8 (a leading byte-order mark is accepted and dropped)."""
     if path.is_dir():
         raise TrialError(path, f"is a directory, not a {what}")
+    if path.exists() and not path.is_file():  # a FIFO would block the read forever
+        raise TrialError(path, f"not a regular file (a FIFO, device or socket?), not a {what}")
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -107,8 +112,14 @@ def validate(side: Path, meta) -> dict:
         raise TrialError(side, f"fixed_joints must be an object name -> rad, got {json.dumps(fixed)}",
                          column="fixed_joints")
     for k, v in fixed.items():
-        _number(side, f"fixed_joints.{k}", v)
-    _vector(side, "gravity", meta["gravity"], 3)
+        x = _number(side, f"fixed_joints.{k}", v)
+        if abs(x) > MAX_FIXED_RAD:
+            raise TrialError(side, f"fixed_joints.{k} = {x:g} beyond {MAX_FIXED_RAD:g} (rad or m): not a "
+                                   "joint position", column=f"fixed_joints.{k}")
+    g = _vector(side, "gravity", meta["gravity"], 3)
+    if np.max(np.abs(g)) > MAX_GRAVITY_M_S2:
+        raise TrialError(side, f"gravity component {np.max(np.abs(g)):g} m/s^2 beyond {MAX_GRAVITY_M_S2:g} "
+                               "m/s^2", column="gravity")
     rate = _number(side, "rate_hz", meta["rate_hz"], positive=True, allow_zero=False)
     if rate > MAX_RATE_HZ:
         raise TrialError(side, f"rate_hz {rate} above {MAX_RATE_HZ:g}", column="rate_hz")
@@ -130,7 +141,10 @@ def validate(side: Path, meta) -> dict:
             raise TrialError(side, "dq_filter must be {'window_s': s, 'polyorder': n}, got "
                                    f"{json.dumps(f)}", column="dq_filter")
         if "window_s" in f:
-            _number(side, "dq_filter.window_s", f["window_s"], positive=True, allow_zero=False)
+            w = _number(side, "dq_filter.window_s", f["window_s"], positive=True, allow_zero=False)
+            if w > MAX_DQ_WINDOW_S:
+                raise TrialError(side, f"dq_filter.window_s {w:g} s beyond {MAX_DQ_WINDOW_S:g} s (a "
+                                       "derivative window is milliseconds)", column="dq_filter")
         if "polyorder" in f and (not isinstance(f["polyorder"], int) or not 1 <= f["polyorder"] <= 6):
             raise TrialError(side, "dq_filter.polyorder must be an integer in 1..6", column="dq_filter")
     if meta.get("resolution") is not None:

@@ -43,6 +43,7 @@ __all__ = [
 
 WRENCH_COLUMNS = ("f_ext_x", "f_ext_z", "m_ext_y")
 MIN_ROWS = 16
+MAX_PERIOD_DEVIATION = 0.5  # a step between rows off 1/rate_hz by more than this fraction is a gap
 MAX_ABS = {"t": 1e10, "q": 1e5, "dq": 1e6, "tau": 1e6, "f": 1e7}  # beyond these a value is garbage, not data
 
 
@@ -162,6 +163,13 @@ def load_trial(path: str | Path, robot: Robot | None = None) -> Trial:
     if abs(dt_med * rate - 1.0) > 0.05:
         raise TrialError(path, f"median sample period {dt_med:.6g} s does not match rate_hz {rate}",
                          column="t")
+    off = np.nonzero(np.abs(np.diff(t) * rate - 1.0) > MAX_PERIOD_DEVIATION)[0]
+    if off.size:  # rows missing (or doubled): the filters and derivatives assume an even sampling
+        r = int(off[0])
+        steps = (t[r + 1] - t[r]) * rate
+        raise TrialError(path, f"time jumps from {t[r]:.6g} to {t[r + 1]:.6g} s ({steps:.3g} sample periods "
+                               f"of 1/rate_hz; {off.size} such step(s)): rows missing? cut the trial "
+                               "there into two", row=r + 2, column="t")
     if not np.any(data[:, [c for c in range(len(header)) if header[c] != "t"]]):
         raise TrialError(path, "every value except t is zero: nothing was recorded")
 

@@ -178,12 +178,13 @@ def _per_joint(robot, arr) -> dict:
 
 def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Path | None = None,
         window_s: float = 0.2, cutoff_hz: float | None = None, plots: bool = True,
-        max_effects: int | None = None) -> dict:
+        max_effects: int | None = None, trials: list[Trial] | None = None) -> dict:
     """The whole workflow (module docstring). `cutoff_hz` None: chosen from the data (`choose_cutoff`);
-    `max_effects` None: no cap (the search ends when no candidate passes)."""
+    `max_effects` None: no cap (the search ends when no candidate passes); `trials`: `paths` already
+    loaded (`load_trials`), so that a caller can check its inputs before it creates anything."""
     t_start = time.perf_counter()
     out = Path(out)
-    trials = load_trials(paths)
+    trials = trials if trials is not None else load_trials(paths)
     robot = trials[0].robot
     plant_file = Path(nominal_plant) if nominal_plant else trials[0].plant_path()
     eps = trials[0].meta.get("friction_smoothing_rad_s")
@@ -317,13 +318,29 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
         "plant_file": "plant.json",
     }
     report["wall_time_s"] = round(time.perf_counter() - t_start, 3)
-    (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
+    report = finite_json(report)
+    (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False) + "\n")
     if plots:
         from sparc_quad.gap import report as R
         R.write(out, report, robot, blocks, res0, ho_blocks, res_before, res_after, rep_b, rep_a, floor)
         report["wall_time_s"] = round(time.perf_counter() - t_start, 3)
-        (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
+        (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False) + "\n")
     return report
+
+
+def finite_json(o):
+    """`o` as plain JSON values with every NaN or infinity as null (JSON has no token for them)."""
+    if isinstance(o, dict):
+        return {k: finite_json(v) for k, v in o.items()}
+    if isinstance(o, list | tuple):
+        return [finite_json(v) for v in o]
+    if isinstance(o, np.ndarray):
+        return finite_json(o.tolist())
+    if isinstance(o, np.generic):
+        o = o.item()
+    if isinstance(o, float) and not np.isfinite(o):
+        return None
+    return o
 
 
 def _log_sources(trials: list[Trial]) -> list[dict]:
@@ -341,11 +358,3 @@ def _log_sources(trials: list[Trial]) -> list[dict]:
         e["segments"].append({"trial": tr.name, "first_seq": src["first_seq"], "last_seq": src["last_seq"],
                               "filled": len(src["filled_t"])})
     return list(out.values())
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
