@@ -219,6 +219,7 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
     loc = localise(blocks, res0, floor, robot)
     lib = Library(blocks, nominal)
     sel = Selector(lib, train, test, res0, floor)
+    sel.least_floor = least
     torque_kind = trials[0].torque_kind
     couplings = S.couplings_from(trials[0].meta, robot.actuated)
     steps, final_fit, sel_log = S.select(sel, max_effects, torque_kind, couplings)
