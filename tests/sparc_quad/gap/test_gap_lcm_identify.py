@@ -93,11 +93,11 @@ def test_identified_plant_loads_into_the_simulated_bench(plain_session):
         assert np.all(np.isfinite(world.state().q))
 
 
-BACKWARD_EULER = ("measured 2026-12-07 in two runs: the held-out residual stays at 1.7-2.1x (q2), "
-                  "1.1-1.2x (q3) and 3.5-3.7x (q4) the noise floor; the residual of the plant's own true "
-                  "friction and inertia is already 2.2x (q2) and 3.8x (q4) it: the bench integrates friction "
+BACKWARD_EULER = ("measured 2026-12-07: the held-out residual stays at 1.7-2.2x (q2), 1.1-1.2x (q3) "
+                  "and 3.5-3.8x (q4) the noise floor; the residual of the plant's own true friction and "
+                  "inertia is already 2.2x (q2) and 3.8x (q4) it: the bench integrates friction "
                   "backward-Euler (dt * f'(dq) in its mass matrix, sim/bench_world.py), the residual at the "
-                  "step's midpoint, which a sharp tanh on the light q4 tells apart (docs/gap.md)")
+                  "step's midpoint; with the bench at the midpoint the same run ends gap_closed (gap.md)")
 
 
 @pytest.mark.xfail(strict=True, reason=BACKWARD_EULER)
