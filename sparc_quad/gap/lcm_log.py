@@ -11,23 +11,24 @@ One trial sample per `SPARC_SPINE_STATE` event (the node publishes one per contr
   used only if the sidecar leaves it non-fixed; the bench spine's sidecar fixes it (q1 = 0);
 - `tau_cmd_<joint>`: the state's `tau_cmd` (after the node's clamps: what the motors were sent);
 - `tau_meas_<joint>`: the state's `tau_est` (the motors' torque estimate) when finite throughout;
-- `f_ext_x`: `load_cell[0]` when the sidecar names an `ee_frame` and the reading is finite throughout
-  (the bench robot's load cell measures F_x along the base x at the front body's tip; `f_ext_z`, `m_ext_y`
-  are 0). Sidecar `"lcm_load_cell": null` turns this off.
+- `f_ext_x`: `load_cell[0]` when the sidecar names an `ee_frame` and the reading is finite (NaN runs of at
+  most MAX_FILL_TICKS, a cell read every few ticks, are filled in; the bench robot's load cell measures F_x
+  along the base x at the front body's tip; `f_ext_z`, `m_ext_y` are 0). Sidecar `"lcm_load_cell": null`
+  turns this off.
 
 Spine states travel over UDP: up to MAX_FILL_TICKS states lost in a row (seq jumps) are filled in linearly
 in the tick number and listed in `meta["source"]["filled_t"]`; at a longer gap the log is split into
 segments, each a trial of its own (`load_segments`; the gaps in `meta["source"]["gaps"]`). A segment
 of a split log shorter than MIN_SEGMENT_S is dropped (listed); only a split log with no segment that long
-is refused. A seq or
-time that does not increase is an error naming the event.
+is refused. A seq or time that does not increase is an error naming the event.
 
 What each column was read from is in `meta["columns"]`; what the log lacks for identification (no load
 cell, no motor torque estimate) in `meta["lacks"]` and a warning.
 
 The sidecar (same stem, `.json`) is optional: without one the log is taken to be the SPARC bench spine
 (`robots/sparc_spine`, q1 fixed at 0, actuated q2..q4, ee frame `end_effector`, `rate_hz` from the
-node's rate, 1 kHz, or the median state period when that is far from it).
+node's rate, 1 kHz, or the median state period when that is far from it), with the CyberGear's and the bench
+load cell's `resolution` (the least noise floor) and eq. (4)'s tanh smoothing for the friction effects.
 """
 
 from __future__ import annotations
