@@ -134,6 +134,12 @@ def run(args: argparse.Namespace) -> int:
     except NumericalError as exc:  # the input was accepted; a computation on it failed
         print(f"sparc-quad gap run: numerical failure (not bad input): {exc}", file=sys.stderr)
         return 1
+    for src in rep.get("log_sources", []):
+        if src["gaps"] or src["dropped_segments"] or src["lacks"]:
+            lacks = "; ".join(x.split(":")[0] for x in src["lacks"]) or "nothing"
+            print(f"log {src['log']}: {len(src['segments'])} segment(s) between {len(src['gaps'])} gap(s) of "
+                  f"lost states, {len(src['dropped_segments'])} too short to use; lacks: {lacks} "
+                  "(report.json log_sources)")
     names = ", ".join(f"{e['name']}@{e['joint']}" for e in rep["effects"]) or "none"
     print(f"verdict: {rep['verdict']}; effects: {names}; ambiguous: {len(rep['ambiguous'])}")
     print(f"report: {args.out / 'report.json'}  plant: {args.out / 'plant.json'}")

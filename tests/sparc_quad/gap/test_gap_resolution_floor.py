@@ -7,6 +7,8 @@ the CyberGear frames' and the load cell's resolution, and the report says which 
 
 from __future__ import annotations
 
+import json
+
 import lcm
 import numpy as np
 import pytest
@@ -57,8 +59,6 @@ def test_floor_of_clean_data_is_the_sensors_resolution(ideal_log, tmp_path):
 
 def test_without_stated_resolution_the_floor_is_float64_precision(ideal_log, tmp_path):
     """A sidecar that states no sensor resolution: the least floor is the numbers' precision, > 0."""
-    import json
-
     from sparc_quad.gap.lcm_log import default_meta
 
     meta = default_meta(ideal_log, 1000.0)
@@ -71,3 +71,25 @@ def test_without_stated_resolution_the_floor_is_float64_precision(ideal_log, tmp
     least = rep["noise_floor_resolution"]["floor_nm"]
     assert all(0 < v < 1e-9 for v in least.values()), least
     assert all(v > 0 for v in rep["noise_floor"].values())
+
+
+def test_split_log_runs_as_its_segments(ideal_log, tmp_path, capsys):
+    """10 spine states lost in a row in the middle of a session: `gap run` takes the two segments as trials
+    (one held out), lists the gap in the report and says so on the command line."""
+    from sparc_quad.cli import main
+
+    src = lcm.EventLog(str(ideal_log), "r")
+    cut = tmp_path / "split.lcmlog"
+    out = lcm.EventLog(str(cut), "w", overwrite=True)
+    for ev in src:
+        if not 4000 <= codec.decode(ev.channel, ev.data).seq < 4010:
+            out.write_event(ev.timestamp, ev.channel, ev.data)
+    out.close()
+    assert main(["gap", "run", str(cut), "--out", str(tmp_path / "gap"), "--no-plots"]) == 0
+    assert "2 segment(s) between 1 gap(s)" in capsys.readouterr().out
+    rep = json.loads((tmp_path / "gap" / "report.json").read_text())
+    src = rep["log_sources"][0]
+    assert [g["lost"] for g in src["gaps"]] == [10] and src["gaps"][0]["after_seq"] == 3999
+    assert [s["trial"] for s in src["segments"]] == ["split_seg00", "split_seg01"]
+    blocks = [(t["block"], t["heldout"]) for t in rep["trials"]]
+    assert blocks == [("split_seg00", False), ("split_seg01", True)]
