@@ -45,6 +45,7 @@ MAX_RATE_HZ = 1e6
 MAX_FIXED_RAD = 1e3  # a fixed joint's position (rad, or m for a prismatic one)
 MAX_GRAVITY_M_S2 = 1e3  # 100 g: beyond it the number is not a gravity
 MAX_DQ_WINDOW_S = 10.0
+MAX_PERIOD_S = 1e4
 
 
 def sidecar_path(csv_path: Path) -> Path:
@@ -124,7 +125,11 @@ def validate(side: Path, meta) -> dict:
     if rate > MAX_RATE_HZ:
         raise TrialError(side, f"rate_hz {rate} above {MAX_RATE_HZ:g}", column="rate_hz")
     if meta.get("period_s") is not None:
-        _number(side, "period_s", meta["period_s"], positive=True, allow_zero=False)
+        period = _number(side, "period_s", meta["period_s"], positive=True, allow_zero=False)
+        if period * rate < 2 or period > MAX_PERIOD_S:
+            raise TrialError(side, f"period_s {period:g} s: an excitation period spans at least 2 samples "
+                                   f"(1/rate_hz = {1 / rate:g} s) and at most {MAX_PERIOD_S:g} s",
+                             column="period_s")
     for key in ("ee_frame", "plant", "description"):
         if meta.get(key) is not None and not isinstance(meta[key], str):
             raise TrialError(side, f"{key} must be a string, got {json.dumps(meta[key])}", column=key)

@@ -84,6 +84,7 @@ CASES = {
     "sidecar_window_huge": (lambda p, t: _meta(p, dq_filter={"window_s": 1e308}), "dq_filter.window_s"),
     "sidecar_fixed_joint_huge": (lambda p, t: _meta(p, fixed_joints={"q1": 1e300}), "fixed_joints.q1"),
     "rows_cut_from_the_middle": (lambda p, t: _cut_rows(p), "time jumps from"),
+    "sidecar_period_tiny": (lambda p, t: _meta(p, period_s=1e-300), "period_s 1e-300 s"),
     "fifo_as_trial": (lambda p, t: _fifo(p), "not a regular file"),
 }
 
