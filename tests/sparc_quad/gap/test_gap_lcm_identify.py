@@ -8,8 +8,8 @@ quantisation, sensor noise, the rig's push read by its load cell).
   25 %, and no effect the plant does not have;
 - an effect hidden with `bench-robot --effect` on one joint, the plant's known friction and inertia given
   as the nominal plant: named on that joint, its parameter within 15 %, nothing else named but a
-  re-estimate of the known friction or inertia within 25 % (one case in the default suite, the other
-  kinds the bench takes are `slow`).
+  re-estimate of the known inertia within 2 % (one case in the default suite, the other kinds the bench
+  takes are `slow`).
 """
 
 from __future__ import annotations
@@ -139,17 +139,26 @@ def test_hidden_effect_named_on_its_joint(tmp_path, name):
           f"{rep['verdict']}; gap/floor {rep['gap_after_over_floor']}")
     assert named, ([(e["name"], e["joint"], e["params"]) for e in rep["effects"]], rep["ambiguous"], logs)
     assert abs(named[0]["params"][key] / value - 1) <= HIDDEN_TOL, (named[0], value)
-    # nothing else, but for a re-estimate of the known friction or inertia within the 25 % the plant's own
-    # test allows (seen: +1e-5 kg*m^2, +0.6 %, on q4's rotor inertia, the bench's backward-Euler friction)
-    known = {(e.name, e.joint): e.params for e in bench_truth_effects()[0]}
-    others = [(e["name"], e["joint"], e["params"]) for e in rep["effects"] if e is not named[0]
-              and not _small_correction(e, known)]
-    assert not others and not rep["ambiguous"], (others, rep["ambiguous"])
+    # nothing else, but for a re-estimate of the known inertia about that joint's axis within
+    # INERTIA_REESTIMATE, named as rotor inertia or as the equivalent link inertia (or ambiguous between them)
+    # (measured: +1.3 % on q2, +0.6 % on q4 in most runs: the bench's backward-Euler friction step)
+    others = [(e["name"], e["joint"], e["params"]) for e in rep["effects"]
+              if e is not named[0] and not _inertia_reestimate(e)]
+    unclear = [a["best"] for a in rep["ambiguous"] if not _inertia_reestimate(a["best"])]
+    assert not others and not unclear, (others, unclear)
 
 
-def _small_correction(entry: dict, known: dict) -> bool:
-    """An effect of a kind the known plant has on that joint, changing its amplitude by <= TRUTH_TOL."""
-    if (entry["name"], entry["joint"]) not in known or entry["name"] not in FRICTION_AND_INERTIA:
-        return False
-    key = FRICTION_AND_INERTIA[entry["name"]]
-    return abs(entry["params"][key]) <= TRUTH_TOL * known[(entry["name"], entry["joint"])][key]
+INERTIA_REESTIMATE = 0.02  # of the bench's rotor inertia
+
+
+def _inertia_reestimate(entry: dict) -> bool:
+    """A rotor inertia, or a link's rotational inertia (param_index 4-9: Ixx..Izz), of at most
+    INERTIA_REESTIMATE x the bench's rotor inertia: the known inertia re-estimated, not another effect."""
+    from sparc_quad.sim.plant import PlantConfig
+
+    limit = INERTIA_REESTIMATE * PlantConfig().armature_kg_m2
+    if entry["name"] == "rotor_inertia":
+        return abs(entry["params"]["inertia_kg_m2"]) <= limit
+    if entry["name"] == "link_inertia":
+        return 4 <= entry["params"]["param_index"] <= 9 and abs(entry["params"]["delta"]) <= limit
+    return False
