@@ -64,3 +64,72 @@ def check_named(rep: dict, hidden) -> list[str]:
     if rep["verdict"] != "gap_closed":
         errs.append(f"verdict {rep['verdict']}")
     return errs
+
+
+def record_session(out: Path, robot_args: str, node_args: str = "--soft-start 0",
+                   timeout_s: float = 600.0) -> tuple[Path, str]:
+    """`spine-node --motors lcm` + `bench-robot ROBOT_ARGS` (lockstep) recorded by `lcm-logger`, as separate
+    processes on UDP multicast in a private network namespace (the harness of tests/conftest.py::lcm_run):
+    the robot starts once the logger has recorded a start mark, the logger stops once it has recorded an
+    end mark. Returns (the log, the processes' stderr tails)."""
+    import shlex
+    import sys
+
+    from spine_module.messages import channels
+    from tests import lcm_mark
+    from tests.node_netns import UDP_COUNTERS, lcm_tool, run_in_netns
+
+    root = Path(__file__).resolve().parents[1]
+    out.mkdir(parents=True, exist_ok=True)
+    py = shlex.quote(sys.executable)
+    url = shlex.quote(channels.DEFAULT_URL.replace("recv_buf_size=2097152", "recv_buf_size=4194304"))
+    log = out / "session.lcmlog"
+    script = f"""
+export PYTHONPATH={shlex.quote(str(root))}
+{py} -m sparc_quad spine-node --motors lcm --clock lockstep --idle-timeout 5 {node_args} \
+    --summary {out}/node.json > {out}/node.out 2> {out}/node.err &
+NODE=$!
+{shlex.quote(lcm_tool("lcm-logger"))} -q --lcm-url={url} -f {log} > {out}/logger.out 2>&1 &
+LOGGER=$!
+{py} -m tests.lcm_mark {url} {lcm_mark.START} {log} 2> {out}/mark.err
+{py} -m sparc_quad bench-robot --clock lockstep {robot_args} --out {out}/robot > {out}/robot.out \
+    2> {out}/robot.err
+wait $NODE
+{py} -m tests.lcm_mark {url} {lcm_mark.END} {log} 2>> {out}/mark.err
+kill -INT $LOGGER
+wait $LOGGER || true
+""" + UDP_COUNTERS.format(out=out)
+    r = run_in_netns(script, root, timeout_s=timeout_s)
+    logs = "\n".join(f"--- {p.name}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("*.err")))
+    assert r.returncode == 0, f"rc={r.returncode}\n{r.stderr}\n{logs}"
+    return log, logs
+
+
+def bench_truth_effects():
+    """The bench plant's own friction and rotor inertia (`sim.plant.PlantConfig()`, the truth a log of it
+    should give) as effect-library entries: Coulomb, the Stribeck excess, viscous, rotor inertia on every
+    actuated joint, and the tanh smoothing (1 / beta) of its friction law."""
+    from sparc_quad.effects.base import Effect
+    from sparc_quad.sim.plant import PlantConfig
+    from spine_module import params as P
+
+    cfg = PlantConfig()
+    f = cfg.friction
+    eff = []
+    for j in P.ACTUATED_JOINTS:
+        eff += [Effect("coulomb_friction", j, {"tau_c_nm": f.tau_c_nm}),
+                Effect("stribeck_friction", j, {"tau_s_nm": f.tau_s_nm - f.tau_c_nm,
+                                                 "dq_s_rad_s": f.dq_s_rad_s}),
+                Effect("viscous_friction", j, {"b_nm_s_rad": f.b_nm_s_rad}),
+                Effect("rotor_inertia", j, {"inertia_kg_m2": cfg.armature_kg_m2})]
+    return eff, 1.0 / f.beta_s_rad
+
+
+def write_bench_truth_plant(path: Path) -> Path:
+    """The bench plant's known friction and rotor inertia as a plant-effects file (`gap run --plant`)."""
+    from sparc_quad.effects.plant import PlantEffects
+    from spine_module import params as P
+
+    eff, eps = bench_truth_effects()
+    PlantEffects(list(P.ACTUATED_JOINTS), eff, eps).save(path)
+    return path

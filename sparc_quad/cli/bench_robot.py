@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 
 import numpy as np
 
@@ -39,8 +40,40 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--out", type=output_dir, default=None,
                    help="write bench_robot.npz (robot log and the node's states) and summary.json here "
                         "(default: write nothing)")
+    r.add_argument("--effect", action="append", default=[], metavar="NAME[:key=value,...]",
+                   help="hide a named effect in the plant (repeatable; the syntax and registry of `gap synth "
+                        "--effect`, e.g. coulomb_friction:joint=q3,tau_c_nm=0.02; torque_saturation needs "
+                        "limit_nm): a whole session over LCM then carries it")
     add_experiment_args(r)
     r.set_defaults(func=run, extra="sim")
+
+
+def plant_with_effects(args: argparse.Namespace):
+    """The experiment's plant with the --effect entries on top, checked before any resource is taken."""
+    from dataclasses import replace
+
+    from sparc_quad.cli.gap import _spine_effects
+    from sparc_quad.effects import kind
+    from sparc_quad.effects.plant import PlantEffects
+    from spine_module import params as P
+
+    base = plant(args)
+    if not args.effect:
+        return base
+    effects = _spine_effects(args.effect)
+
+    # a synth-only key that needs the run's peak torque (saturation's limit_fraction) resolves to NaN
+    for e in effects:
+        kind(e.name).resolve_synth(e.params, P.ACTUATED_JOINTS.index(e.joint), lambda _j: math.nan)
+        if any(isinstance(v, float) and not math.isfinite(v) for v in e.params.values()):
+            raise BadInput(f"--effect {e.name} on the bench needs its value in N*m (e.g. limit_nm): the "
+                           "run's peak torque is not known before it runs")
+    pe = PlantEffects(list(P.ACTUATED_JOINTS), effects, 1.0 / base.friction.beta_s_rad)
+    if pe.model_effects():
+        names = sorted({e.name for e in pe.model_effects()})
+        raise BadInput(f"--effect {', '.join(names)}: changes the rigid bodies, which the pybullet bench "
+                       "does not take (put it in the URDF)")
+    return replace(base, effects=pe)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -52,13 +85,14 @@ def run(args: argparse.Namespace) -> int:
     from sparc_quad.sim.bench_world import BenchWorld
 
     s = script(args)
+    world_plant = plant_with_effects(args)
     try:
         port = LcmPort(args.lcm_url, spin_s=args.spin_us * 1e-6 if args.clock == "lockstep" else 0.0)
     except RuntimeError as exc:
         raise BadInput(f"cannot open LCM at {args.lcm_url!r} (a multicast route is needed, see docs): "
                        f"{exc}") from exc
     try:
-        with BenchWorld(plant=plant(args), seed=args.seed) as world, stop_on_signals() as stop:
+        with BenchWorld(plant=world_plant, seed=args.seed) as world, stop_on_signals() as stop:
             robot = BenchRobot(world, port, s)
             # the world stays frozen until a node is up (unpowered, the spine would sag under gravity)
             if not robot.wait_for_node(args.wait_node):

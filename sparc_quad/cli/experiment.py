@@ -6,16 +6,18 @@ from __future__ import annotations
 import argparse
 
 from sparc_quad.cli.args import SIM_DURATION_MAX_S, add_gain_options, in_range, seed
-from sparc_quad.cli.errors import BadInput
+from sparc_quad.cli.errors import BadInput, bad_input
 
 AMPLITUDE_MAX_M = 0.1  # a push beyond 0.1 m leaves the spine's workspace along x
 
 
 def add_experiment_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("bench experiment (the robot side's script)")
-    g.add_argument("--experiment", choices=["hold", "static", "none"], default="hold",
+    g.add_argument("--experiment", choices=["hold", "static", "ident", "none"], default="hold",
                    help="hold: impedance at x_d with the default gains; static: push-pull along x "
-                        "(paper Section IV-A); none: send no spine command")
+                        "(paper Section IV-A); ident: the identification excitation for `gap run` (sums of "
+                        "sines on the task target and a push; 20 s unless --duration; docs/gap.md); none: "
+                        "send no spine command")
     add_gain_options(g, ("kx",), prefix="static: commanded ")
     g.add_argument("--amplitude", type=in_range(0.0, AMPLITUDE_MAX_M, lo_open=True), default=0.025,
                    help=f"static: displacement the push aims for, m, up to {AMPLITUDE_MAX_M}")
@@ -34,6 +36,11 @@ def script(args: argparse.Namespace):
 
     if args.experiment == "static":
         s = static_push_script(args.kx, args.amplitude, args.period, args.cycles)
+    elif args.experiment == "ident":
+        from sparc_quad.robot_side.excitation import IDENT_DURATION_S, ident_script
+
+        with bad_input(ValueError, prefix="--experiment ident: "):
+            s = ident_script(args.duration if args.duration is not None else IDENT_DURATION_S)
     elif args.experiment == "hold":
         s = hold_script()
     else:

@@ -116,16 +116,30 @@ def _gap_errors() -> tuple[type[BaseException], ...]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from sparc_quad.effects.plant import PlantEffects
     from sparc_quad.gap.errors import NumericalError
+    from sparc_quad.gap.workflow import load_trials
     from sparc_quad.gap.workflow import run as run_gap
 
+    with bad_input(*_gap_errors()):  # every input checked before anything is created
+        trials = load_trials(args.trials)
+        plant_file = args.plant or trials[0].plant_path()
+        if plant_file is not None:
+            PlantEffects.load(plant_file)
     try:
         with atomic_dir(args.out) as tmp, bad_input(*_gap_errors()):
             rep = run_gap(args.trials, tmp, nominal_plant=args.plant, window_s=args.window,
-                          cutoff_hz=args.cutoff, plots=not args.no_plots, max_effects=args.max_effects)
+                          cutoff_hz=args.cutoff, plots=not args.no_plots, max_effects=args.max_effects,
+                          trials=trials)
     except NumericalError as exc:  # the input was accepted; a computation on it failed
         print(f"sparc-quad gap run: numerical failure (not bad input): {exc}", file=sys.stderr)
         return 1
+    for src in rep.get("log_sources", []):
+        if src["gaps"] or src["dropped_segments"] or src["lacks"]:
+            lacks = "; ".join(x.split(":")[0] for x in src["lacks"]) or "nothing"
+            print(f"log {src['log']}: {len(src['segments'])} segment(s) between {len(src['gaps'])} gap(s) of "
+                  f"lost states, {len(src['dropped_segments'])} too short to use; lacks: {lacks} "
+                  "(report.json log_sources)")
     names = ", ".join(f"{e['name']}@{e['joint']}" for e in rep["effects"]) or "none"
     print(f"verdict: {rep['verdict']}; effects: {names}; ambiguous: {len(rep['ambiguous'])}")
     print(f"report: {args.out / 'report.json'}  plant: {args.out / 'plant.json'}")

@@ -33,8 +33,10 @@ class AsymmetricCoulomb(EffectKind):
 
     @classmethod
     def joint_options(cls, search, selected, taken, joint) -> list:
-        """A direction-dependent Coulomb level refines a Coulomb friction already in the model."""
-        if (cls.REFINES, joint) in taken and (cls.NAME, joint) not in taken:
+        """A direction-dependent Coulomb level refines a Coulomb friction already in the model (named, or
+        in the nominal plant)."""
+        has = (cls.REFINES, joint) in taken or (cls.REFINES, joint) in getattr(search, "in_nominal", ())
+        if has and (cls.NAME, joint) not in taken:
             return [[Term(cls.NAME, joint)]]
         return []
 

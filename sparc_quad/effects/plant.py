@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 from collections import deque
 from collections.abc import Sequence
 from pathlib import Path
@@ -36,6 +37,70 @@ from sparc_quad.effects.base import Effect, FrictionLaw, PlantEffectsError
 from sparc_quad.effects.registry import EFFECTS, kind
 
 SCHEMA = "sparc-quad/plant-effects/1"
+TOP_KEYS = ("schema", "joints", "friction_smoothing_rad_s", "effects")
+MAX_PARAM = 1e6  # |a parameter| beyond this (N*m, kg*m^2, s, rad, ...) is garbage, not a plant
+MAX_DELAY_S = 10.0
+MAX_SMOOTHING_RAD_S = 100.0
+
+
+def _bad_number(v) -> str | None:
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return f"must be a number, got {json.dumps(v)[:40]}"
+    if not math.isfinite(v):
+        return f"must be finite, got {v}"
+    if abs(v) > MAX_PARAM:
+        return f"{v:g} beyond {MAX_PARAM:g} (not a physical value)"
+    return None
+
+
+def check_plant_dict(d) -> None:
+    """Type, finiteness and range of every key of a plant file, before any is used; PlantEffectsError
+    naming the key. Parameters are numbers (lists of numbers for list-valued ones, e.g. a direction);
+    extra text entries beside them (a link-inertia `combination`) are kept as they are."""
+    if not isinstance(d, dict):
+        raise PlantEffectsError(f"a plant file is a JSON object, got {type(d).__name__}")
+    if d.get("schema") != SCHEMA:
+        raise PlantEffectsError(f"plant file schema {d.get('schema')!r}, expected {SCHEMA!r}")
+    unknown = sorted(set(d) - set(TOP_KEYS))
+    if unknown:
+        raise PlantEffectsError(f"unknown key(s) {unknown}; a plant file has {list(TOP_KEYS)}")
+    joints = d.get("joints")
+    if not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j for j in joints):
+        raise PlantEffectsError(f"joints must be a non-empty list of names, got {json.dumps(joints)[:60]}")
+    eps = d.get("friction_smoothing_rad_s", 0.01)
+    why = _bad_number(eps)
+    if why is None and not 0 < eps <= MAX_SMOOTHING_RAD_S:
+        why = f"must be in (0, {MAX_SMOOTHING_RAD_S:g}] rad/s, got {eps}"
+    if why:
+        raise PlantEffectsError(f"friction_smoothing_rad_s {why}")
+    effects = d.get("effects", [])
+    if not isinstance(effects, list):
+        raise PlantEffectsError(f"effects must be a list, got {type(effects).__name__}")
+    for i, e in enumerate(effects):
+        where = f"effects[{i}]"
+        if not isinstance(e, dict):
+            raise PlantEffectsError(f"{where} must be an object, got {json.dumps(e)[:40]}")
+        name = e.get("name")
+        if not isinstance(name, str) or name not in EFFECTS:
+            raise PlantEffectsError(f"{where}.name {json.dumps(name)[:40]} is not an effect "
+                                    f"({', '.join(EFFECTS)})")
+        if e.get("joint") not in joints:
+            raise PlantEffectsError(f"{where}.joint {json.dumps(e.get('joint'))[:40]} not in {joints}")
+        params = e.get("params", {})
+        if not isinstance(params, dict):
+            raise PlantEffectsError(f"{where}.params must be an object, got {type(params).__name__}")
+        for key in kind(name).param_keys():
+            if key not in params:
+                continue
+            v = params[key]
+            for x in (v if isinstance(v, list) else [v]):
+                why = _bad_number(x)
+                if why:
+                    raise PlantEffectsError(f"{where}.params.{key} ({name}) {why}")
+        for key, v in params.items():
+            if key not in kind(name).param_keys() and not isinstance(v, str):
+                raise PlantEffectsError(f"{where}.params: unknown parameter {key!r} of {name} "
+                                        f"(known: {', '.join(kind(name).param_keys())})")
 
 
 class PlantEffects:
@@ -92,20 +157,38 @@ class PlantEffects:
 
     @staticmethod
     def from_dict(d: dict) -> PlantEffects:
-        if d.get("schema") != SCHEMA:
-            raise PlantEffectsError(f"plant file schema {d.get('schema')!r}, expected {SCHEMA!r}")
-        return PlantEffects(d["joints"], [Effect.from_dict(e) for e in d.get("effects", [])],
-                            d.get("friction_smoothing_rad_s", 0.01))
+        """From a parsed plant file; every key checked first (`check_plant_dict`): a PlantEffectsError
+        names the key."""
+        check_plant_dict(d)
+        pe = PlantEffects(d["joints"], [Effect.from_dict(e) for e in d.get("effects", [])],
+                          d.get("friction_smoothing_rad_s", 0.01))
+        for j, name in enumerate(pe.joints):
+            if pe.arm[j] < 0:
+                raise PlantEffectsError(f"rotor inertia of {name} sums to {pe.arm[j]:g} kg*m^2 (< 0)")
+            if not 0 <= pe.delay[j] <= MAX_DELAY_S:
+                raise PlantEffectsError(f"time delay of {name} sums to {pe.delay[j]:g} s "
+                                        f"(not in 0..{MAX_DELAY_S:g})")
+        return pe
 
     def save(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        """JSON without NaN or infinity tokens (json refuses them here rather than write invalid JSON)."""
+        Path(path).write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
 
     @staticmethod
     def load(path: str | Path) -> PlantEffects:
+        path = Path(path)
         try:
-            return PlantEffects.from_dict(json.loads(Path(path).read_text()))
-        except (OSError, json.JSONDecodeError, KeyError) as exc:
+            if not path.is_file():
+                raise PlantEffectsError(f"{path}: not a regular file")
+            text = path.read_bytes().decode("utf-8-sig")
+            return PlantEffects.from_dict(json.loads(text))
+        except UnicodeDecodeError as exc:
+            raise PlantEffectsError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+        except (OSError, json.JSONDecodeError) as exc:
             raise PlantEffectsError(f"{path}: {exc}") from exc
+        except PlantEffectsError as exc:
+            msg = str(exc)
+            raise PlantEffectsError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
 
     # ---- hooks --------------------------------------------------------------------------------------
     def reset(self, dt: float) -> None:

@@ -69,6 +69,7 @@ class Selector:
         self.lib, self.train, self.test = lib, train, test
         self.base = base_res
         self.w = 1.0 / np.maximum(sigma, 1e-9)
+        self.least_floor = np.zeros(len(sigma))  # the sensors' least floor (N*m), set by the workflow
         self.robot = lib.robot
         self._flat_cache: dict = {}
 

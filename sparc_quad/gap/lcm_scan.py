@@ -68,6 +68,8 @@ def open_checked(path: Path):
         raise TrialError(path, "file not found")
     if path.is_dir():
         raise TrialError(path, "is a directory, not an LCM log")
+    if not path.is_file():  # a FIFO would block the scan forever
+        raise TrialError(path, "not a regular file (a FIFO, device or socket?), not an LCM log")
     s = scan(path)
     if s.problem and s.unread > TAIL_OK_BYTES:
         raise TrialError(path, f"{s.problem}; {s.unread} bytes after event {s.events} cannot be read")

@@ -27,6 +27,7 @@ import numpy as np
 
 from sparc_quad.effects import EFFECTS, Term
 from sparc_quad.gap.fitting import Fit, Selector
+from sparc_quad.gap.noise_floor import noise_floor
 
 BIC_MIN = 10.0
 HELDOUT_MIN_PCT = 1.0
@@ -100,7 +101,11 @@ class Search:
         self.kinds = [k for k in EFFECTS.values() if not (torque_kind == "measured" and k.ON_COMMAND)]
         self.names = [k.NAME for k in self.kinds if k.SINGLE]
         self.couplings = list(couplings)
+        # (name, joint) of the nominal plant's effects: a refinement (e.g. an asymmetric Coulomb level) may
+        # refine an effect the nominal plant already carries, not only one the search named
+        self.in_nominal = {(e.name, e.joint) for e in sel.lib.nominal.effects}
         self.log: list[dict] = []
+        self._floors: dict = {}
 
     def joints_of(self, t: Term) -> list[int]:
         if t.direction is not None:
@@ -127,18 +132,41 @@ class Search:
                 i += 1
         return fit
 
-    def contribution(self, fit: Fit, terms: list[Term]) -> float:
-        """RMS (noise floors) of the terms' fitted contribution on their most affected joint, held out."""
+    def model_floor(self, selected: list[Term]) -> np.ndarray:
+        """Noise floor (N*m per joint) of the residual the selected terms leave, over all blocks, within
+        [the sensors' least floor, the floor that whitens the fits]. The whitening floor is the nominal
+        model's, inflated by every effect not yet named (a Coulomb step at each reversal is high-frequency
+        residual too: 20-50x the final floor on the bench spine's log), so a small effect (a Stribeck excess
+        under a named Coulomb level) is judged against what is left once the named effects are in."""
+        key = tuple((t.key, t.theta, t.param_index) for t in selected)
+        if key not in self._floors:
+            sel = self.sel
+            fitted = sel.fit(selected).beta
+            res = []
+            for bi in range(len(sel.lib.blocks)):
+                r = sel.base[bi].copy()
+                beta = iter(fitted)  # the linear terms' coefficients, in the order of `selected`
+                for t in selected:
+                    col = sel.lib.column(t, bi)
+                    r = r - (col if t.fixed else col * next(beta))
+                res.append(r)
+            f, _ = noise_floor(sel.lib.blocks, res)
+            self._floors[key] = np.minimum(np.maximum(f, sel.least_floor), 1.0 / sel.w)
+        return self._floors[key]
+
+    def contribution(self, fit: Fit, terms: list[Term], selected: list[Term]) -> float:
+        """RMS of the terms' fitted contribution on their most affected joint, held out, in noise floors of
+        the residual the already selected terms leave (`model_floor`)."""
         sel = self.sel
         blocks = sel.test or sel.train
         lin = [t for t in fit.terms if not t.fixed]
         tot = None
         for t in terms:
-            col = np.vstack([sel.lib.column(t, bi) for bi in blocks]) * sel.w
+            col = np.vstack([sel.lib.column(t, bi) for bi in blocks])
             if not t.fixed:
                 col = col * fit.beta[lin.index(t)]
             tot = col if tot is None else tot + col
-        return float(np.max(np.sqrt(np.mean(tot**2, axis=0))))
+        return float(np.max(np.sqrt(np.mean(tot**2, axis=0)) / self.model_floor(selected)))
 
     def why_not(self, terms: list[Term], fit: Fit) -> str | None:
         for t in terms:
@@ -186,7 +214,7 @@ class Search:
                 continue
             full = self.assign([*selected, *new])
             why = self.why_not(new, full)
-            size = self.contribution(fit, new)
+            size = self.contribution(fit, new, selected)
             if size < MIN_CONTRIBUTION:
                 why = why or f"contribution {size:.2f} x noise floor < {MIN_CONTRIBUTION}"
             if sel.test and not imp >= HELDOUT_MIN_PCT:
@@ -208,7 +236,8 @@ class Search:
                 gain = without.bic - cur.bic  # what keeping t is worth
                 imp = self.improvement(cur, without, [t])
                 why = plausible(t, self.scale[t.joint], self.mass)
-                if why is None and t.kind.REFINES and (t.kind.REFINES, t.joint) not in {x.key for x in rest}:
+                if why is None and t.kind.REFINES and (t.kind.REFINES, t.joint) not in \
+                        {x.key for x in rest} | self.in_nominal:
                     why = f"refines a {t.kind.REFINES} no longer in the model"
                 if why is None and gain < BIC_MIN:
                     why = f"worth dBIC {-gain:.1f} > -{BIC_MIN} now"

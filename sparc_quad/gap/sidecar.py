@@ -17,6 +17,11 @@ Keys (SI units):
         torque = k_t * current;
     `zero_offsets_rad` (optional, n_motors): motor encoder reading at joint zero:
         q_joint = G (q_motor - offset);
+- `resolution` (optional): the sensors' resolution, which sets the least noise floor the gap is measured
+  against (`gap/resolution_floor.py`): `{"q_rad", "dq_rad_s", "tau_nm", "f_ext_n"}`, each >= 0 (a missing
+  key: only the numbers' precision);
+- `friction_smoothing_rad_s` (optional, > 0): sign(dq) is tanh(dq / this) in the friction effects when no
+  nominal plant file says otherwise (the spine's eq. (4): 1 / beta);
 - `dq_filter` (optional): how dq is differentiated when the CSV has no dq columns:
   `{"window_s": w, "polyorder": p}` for a Savitzky-Golay derivative (zero-phase; default window
   DQ_WINDOW_S, polyorder 3).
@@ -35,7 +40,12 @@ from sparc_quad.gap.errors import TrialError
 REQUIRED_KEYS = ("urdf", "actuated_joints", "fixed_joints", "gravity", "rate_hz")
 TORQUE_KINDS = ("commanded", "measured")
 DQ_WINDOW_S = 0.01
+RESOLUTION_KEYS = ("q_rad", "dq_rad_s", "tau_nm", "f_ext_n")
 MAX_RATE_HZ = 1e6
+MAX_FIXED_RAD = 1e3  # a fixed joint's position (rad, or m for a prismatic one)
+MAX_GRAVITY_M_S2 = 1e3  # 100 g: beyond it the number is not a gravity
+MAX_DQ_WINDOW_S = 10.0
+MAX_PERIOD_S = 1e4
 
 
 def sidecar_path(csv_path: Path) -> Path:
@@ -46,6 +56,8 @@ def read_text(path: Path, what: str) -> str:
     """The file's text: UTF-8 (a leading byte-order mark is accepted and dropped)."""
     if path.is_dir():
         raise TrialError(path, f"is a directory, not a {what}")
+    if path.exists() and not path.is_file():  # a FIFO would block the read forever
+        raise TrialError(path, f"not a regular file (a FIFO, device or socket?), not a {what}")
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -101,13 +113,23 @@ def validate(side: Path, meta) -> dict:
         raise TrialError(side, f"fixed_joints must be an object name -> rad, got {json.dumps(fixed)}",
                          column="fixed_joints")
     for k, v in fixed.items():
-        _number(side, f"fixed_joints.{k}", v)
-    _vector(side, "gravity", meta["gravity"], 3)
+        x = _number(side, f"fixed_joints.{k}", v)
+        if abs(x) > MAX_FIXED_RAD:
+            raise TrialError(side, f"fixed_joints.{k} = {x:g} beyond {MAX_FIXED_RAD:g} (rad or m): not a "
+                                   "joint position", column=f"fixed_joints.{k}")
+    g = _vector(side, "gravity", meta["gravity"], 3)
+    if np.max(np.abs(g)) > MAX_GRAVITY_M_S2:
+        raise TrialError(side, f"gravity component {np.max(np.abs(g)):g} m/s^2 beyond {MAX_GRAVITY_M_S2:g} "
+                               "m/s^2", column="gravity")
     rate = _number(side, "rate_hz", meta["rate_hz"], positive=True, allow_zero=False)
     if rate > MAX_RATE_HZ:
         raise TrialError(side, f"rate_hz {rate} above {MAX_RATE_HZ:g}", column="rate_hz")
     if meta.get("period_s") is not None:
-        _number(side, "period_s", meta["period_s"], positive=True, allow_zero=False)
+        period = _number(side, "period_s", meta["period_s"], positive=True, allow_zero=False)
+        if period * rate < 2 or period > MAX_PERIOD_S:
+            raise TrialError(side, f"period_s {period:g} s: an excitation period spans at least 2 samples "
+                                   f"(1/rate_hz = {1 / rate:g} s) and at most {MAX_PERIOD_S:g} s",
+                             column="period_s")
     for key in ("ee_frame", "plant", "description"):
         if meta.get(key) is not None and not isinstance(meta[key], str):
             raise TrialError(side, f"{key} must be a string, got {json.dumps(meta[key])}", column=key)
@@ -124,9 +146,22 @@ def validate(side: Path, meta) -> dict:
             raise TrialError(side, "dq_filter must be {'window_s': s, 'polyorder': n}, got "
                                    f"{json.dumps(f)}", column="dq_filter")
         if "window_s" in f:
-            _number(side, "dq_filter.window_s", f["window_s"], positive=True, allow_zero=False)
+            w = _number(side, "dq_filter.window_s", f["window_s"], positive=True, allow_zero=False)
+            if w > MAX_DQ_WINDOW_S:
+                raise TrialError(side, f"dq_filter.window_s {w:g} s beyond {MAX_DQ_WINDOW_S:g} s (a "
+                                       "derivative window is milliseconds)", column="dq_filter")
         if "polyorder" in f and (not isinstance(f["polyorder"], int) or not 1 <= f["polyorder"] <= 6):
             raise TrialError(side, "dq_filter.polyorder must be an integer in 1..6", column="dq_filter")
+    if meta.get("resolution") is not None:
+        res = meta["resolution"]
+        if not isinstance(res, dict) or set(res) - set(RESOLUTION_KEYS):
+            raise TrialError(side, f"resolution must be an object with some of {list(RESOLUTION_KEYS)}, got "
+                                   f"{json.dumps(res)[:80]}", column="resolution")
+        for k, v in res.items():
+            _number(side, f"resolution.{k}", v, positive=True)
+    if meta.get("friction_smoothing_rad_s") is not None:
+        _number(side, "friction_smoothing_rad_s", meta["friction_smoothing_rad_s"], positive=True,
+                allow_zero=False)
     return out
 
 

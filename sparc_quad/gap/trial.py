@@ -31,7 +31,9 @@ from sparc_quad.gap.trialdata import Trial, robot_for
 __all__ = [
     "Trial",
     "TrialError",
+    "is_lcm_log",
     "load_lcm_log",
+    "load_lcm_segments",
     "load_sidecar",
     "load_trial",
     "robot_for",
@@ -41,6 +43,7 @@ __all__ = [
 
 WRENCH_COLUMNS = ("f_ext_x", "f_ext_z", "m_ext_y")
 MIN_ROWS = 16
+MAX_PERIOD_DEVIATION = 0.5  # a step between rows off 1/rate_hz by more than this fraction is a gap
 MAX_ABS = {"t": 1e10, "q": 1e5, "dq": 1e6, "tau": 1e6, "f": 1e7}  # beyond these a value is garbage, not data
 
 
@@ -98,10 +101,16 @@ def _kind(col: str) -> str:
     return col.split("_", 1)[0] if not col.startswith("tau_") else "tau"
 
 
+def is_lcm_log(path: str | Path) -> bool:
+    """An lcm-logger file by its name: `.lcm`, `.lcmlog`, or lcm-logger's default `lcmlog-...`."""
+    path = Path(path)
+    return path.suffix in (".lcm", ".lcmlog") or path.name.startswith("lcmlog")
+
+
 def load_trial(path: str | Path, robot: Robot | None = None) -> Trial:
     """Read and validate one trial. Raises TrialError naming file, row and column."""
     path = Path(path)
-    if path.suffix in (".lcm", ".lcmlog") or path.name.startswith("lcmlog"):
+    if is_lcm_log(path):
         return load_lcm_log(path)
     if not path.exists():
         raise TrialError(path, "file not found")
@@ -154,6 +163,13 @@ def load_trial(path: str | Path, robot: Robot | None = None) -> Trial:
     if abs(dt_med * rate - 1.0) > 0.05:
         raise TrialError(path, f"median sample period {dt_med:.6g} s does not match rate_hz {rate}",
                          column="t")
+    off = np.nonzero(np.abs(np.diff(t) * rate - 1.0) > MAX_PERIOD_DEVIATION)[0]
+    if off.size:  # rows missing (or doubled): the filters and derivatives assume an even sampling
+        r = int(off[0])
+        steps = (t[r + 1] - t[r]) * rate
+        raise TrialError(path, f"time jumps from {t[r]:.6g} to {t[r + 1]:.6g} s ({steps:.3g} sample periods "
+                               f"of 1/rate_hz; {off.size} such step(s)): rows missing? cut the trial "
+                               "there into two", row=r + 2, column="t")
     if not np.any(data[:, [c for c in range(len(header)) if header[c] != "t"]]):
         raise TrialError(path, "every value except t is zero: nothing was recorded")
 
@@ -249,6 +265,13 @@ def save_trial(trial: Trial, path: str | Path, meta: dict) -> Path:
     np.savetxt(path, arr, delimiter=",", header=",".join(header), comments="", fmt="%.9g")
     sidecar_path(path).write_text(json.dumps(meta, indent=2) + "\n")
     return path
+
+
+def load_lcm_segments(path: str | Path, min_segment_s: float = lcm_log.MIN_SEGMENT_S) -> list[Trial]:
+    """A spine-node session's lcm-logger file as trials: one per segment between gaps of lost spine
+    states too long to fill in (`sparc_quad.gap.lcm_log`); refused only when no segment is
+    `min_segment_s` long."""
+    return lcm_log.load_segments(path, min_segment_s)
 
 
 def load_lcm_log(path: str | Path, decoder=None) -> Trial:

@@ -24,7 +24,8 @@ from sparc_quad.gap.regimes import REGIMES
 from sparc_quad.gap.regressors import Library
 from sparc_quad.gap.replay import replay
 from sparc_quad.gap.residual import residual
-from sparc_quad.gap.trial import Trial, TrialError, load_trial, robot_for
+from sparc_quad.gap.resolution_floor import resolution_floor
+from sparc_quad.gap.trial import Trial, TrialError, is_lcm_log, load_lcm_segments, load_trial, robot_for
 
 log = logging.getLogger(__name__)
 GAP_CLOSED_FACTOR = 1.1
@@ -35,13 +36,17 @@ def load_trials(paths: Sequence[str | Path]) -> list[Trial]:
         raise TrialError("<command line>", "no trials given")
     trials: list[Trial] = []
     robot = None
+    loaded: list[tuple[Path, Trial]] = []
     for p in paths:
         p = Path(p)
-        if robot is None:
-            tr = load_trial(p)
-            robot = tr.robot
+        if is_lcm_log(p):  # a session log: every segment between unfillable gaps is a trial
+            loaded += [(p, tr) for tr in load_lcm_segments(p)]
         else:
-            tr = load_trial(p, robot)
+            loaded.append((p, load_trial(p, robot)))
+        if robot is None:
+            robot = loaded[0][1].robot
+    for p, tr in loaded:
+        if trials:
             first = trials[0].meta
             for key in ("urdf", "actuated_joints", "fixed_joints", "gravity", "rate_hz"):
                 if tr.meta.get(key) != first.get(key) and key != "urdf":
@@ -173,15 +178,18 @@ def _per_joint(robot, arr) -> dict:
 
 def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Path | None = None,
         window_s: float = 0.2, cutoff_hz: float | None = None, plots: bool = True,
-        max_effects: int | None = None) -> dict:
+        max_effects: int | None = None, trials: list[Trial] | None = None) -> dict:
     """The whole workflow (module docstring). `cutoff_hz` None: chosen from the data (`choose_cutoff`);
-    `max_effects` None: no cap (the search ends when no candidate passes)."""
+    `max_effects` None: no cap (the search ends when no candidate passes); `trials`: `paths` already
+    loaded (`load_trials`), so that a caller can check its inputs before it creates anything."""
     t_start = time.perf_counter()
     out = Path(out)
-    trials = load_trials(paths)
+    trials = trials if trials is not None else load_trials(paths)
     robot = trials[0].robot
     plant_file = Path(nominal_plant) if nominal_plant else trials[0].plant_path()
-    nominal = PlantEffects.load(plant_file) if plant_file else PlantEffects(robot.actuated)
+    eps = trials[0].meta.get("friction_smoothing_rad_s")
+    nominal = PlantEffects.load(plant_file) if plant_file else \
+        PlantEffects(robot.actuated, friction_smoothing_rad_s=eps) if eps else PlantEffects(robot.actuated)
     if nominal.joints != robot.actuated:
         raise TrialError(plant_file, f"plant joints {nominal.joints} != actuated joints {robot.actuated}")
     out.mkdir(parents=True, exist_ok=True)
@@ -198,12 +206,20 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
             step -= 1
     blocks = [Block(p, robot, cutoff_hz, step) for p in parts]
     res0 = [residual(b, nominal) for b in blocks]
-    floor, floor_method = noise_floor(blocks, res0)
+    least, _ = resolution_floor(blocks, nominal)
+
+    def floor_of(bl: list[Block], res: list[np.ndarray]) -> tuple[np.ndarray, str]:
+        """The data's noise floor, never below what the sensors resolve (`resolution_floor`)."""
+        f, how = noise_floor(bl, res)
+        return np.maximum(f, least), how
+
+    floor, floor_method = floor_of(blocks, res0)
     train = [i for i, h in enumerate(heldout) if not h]
     test = [i for i, h in enumerate(heldout) if h]
     loc = localise(blocks, res0, floor, robot)
     lib = Library(blocks, nominal)
     sel = Selector(lib, train, test, res0, floor)
+    sel.least_floor = least
     torque_kind = trials[0].torque_kind
     couplings = S.couplings_from(trials[0].meta, robot.actuated)
     steps, final_fit, sel_log = S.select(sel, max_effects, torque_kind, couplings)
@@ -237,8 +253,10 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
     # small period-to-period state differences; an effect the final model misses and that does not
     # repeat raises it, which the report shows beside the nominal-model estimate)
     floor_all = floor
-    fb, _ = noise_floor(ho_blocks, res_before)
-    fa, floor_method = noise_floor(ho_blocks, res_after)
+    fb, _ = floor_of(ho_blocks, res_before)
+    fa_data, floor_method = noise_floor(ho_blocks, res_after)
+    least_final, least_final_parts = resolution_floor(ho_blocks, plant)  # with the named friction's slope
+    fa = np.maximum(fa_data, least_final)
     floor = fa
     gap_b = np.sqrt(np.mean(np.vstack(res_before) ** 2, axis=0))
     gap_a = np.sqrt(np.mean(np.vstack(res_after) ** 2, axis=0))
@@ -257,6 +275,15 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
         "ambiguous": ambiguous,
         "noise_floor": _per_joint(robot, floor),
         "noise_floor_method": floor_method,
+        "noise_floor_set_by": {j: ("sensor_resolution" if least_final[v] >= fa_data[v] else floor_method)
+                               for v, j in enumerate(robot.joints)},
+        "noise_floor_resolution": {
+            "floor_nm": _per_joint(robot, least_final),
+            "parts_nm": {k: _per_joint(robot, v) for k, v in least_final_parts.items()},
+            "floor_nominal_plant_nm": _per_joint(robot, least),
+            "resolution": trials[0].meta.get("resolution"),
+            "rule": "sensor LSBs (uniform error, LSB/sqrt(12)) and the load cell's reading error through the "
+                    "residual's filter and model terms, plus float64 precision; the floor is never below it"},
         "noise_floor_heldout_nominal_model": _per_joint(robot, fb),
         "noise_floor_heldout_final_model": _per_joint(robot, fa),
         "noise_floor_all_blocks_nominal_model": _per_joint(robot, floor_all),
@@ -285,24 +312,50 @@ def run(paths: Sequence[str | Path], out: str | Path, *, nominal_plant: str | Pa
                      "ambiguous_bic": S.AMBIGUOUS_BIC,
                      "min_contribution_over_floor": S.MIN_CONTRIBUTION,
                      "nominal_plant": str(plant_file) if plant_file else None},
+        "log_sources": _log_sources(trials),
         "trials": [{"block": b.trial.name, "heldout": h, "samples": len(b.trial.t), "decimated": b.n}
                    for b, h in zip(blocks, heldout, strict=True)],
         "robot": {"urdf": robot.urdf, "joints": robot.joints, "actuated": robot.actuated},
         "plant_file": "plant.json",
     }
     report["wall_time_s"] = round(time.perf_counter() - t_start, 3)
-    (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
+    report = finite_json(report)
+    (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False) + "\n")
     if plots:
         from sparc_quad.gap import report as R
         R.write(out, report, robot, blocks, res0, ho_blocks, res_before, res_after, rep_b, rep_a, floor)
         report["wall_time_s"] = round(time.perf_counter() - t_start, 3)
-        (out / "report.json").write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
+        (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False) + "\n")
     return report
 
 
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
+def finite_json(o):
+    """`o` as plain JSON values with every NaN or infinity as null (JSON has no token for them)."""
+    if isinstance(o, dict):
+        return {k: finite_json(v) for k, v in o.items()}
+    if isinstance(o, list | tuple):
+        return [finite_json(v) for v in o]
     if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
+        return finite_json(o.tolist())
+    if isinstance(o, np.generic):
+        o = o.item()
+    if isinstance(o, float) and not np.isfinite(o):
+        return None
+    return o
+
+
+def _log_sources(trials: list[Trial]) -> list[dict]:
+    """Per lcm log: its segments, the gaps it was split at, pieces dropped as too short, where each column
+    came from and what the log lacks (empty for CSV trials)."""
+    out: dict[str, dict] = {}
+    for tr in trials:
+        src = tr.meta.get("source")
+        if not src or "gaps" not in src:
+            continue
+        e = out.setdefault(src["lcm_log"], {"log": src["lcm_log"], "segments": [], "gaps": src["gaps"],
+                                            "dropped_segments": src["dropped_segments"],
+                                            "spine_states_in_log": src["spine_states_in_log"],
+                                            "columns": tr.meta.get("columns"), "lacks": tr.meta.get("lacks")})
+        e["segments"].append({"trial": tr.name, "first_seq": src["first_seq"], "last_seq": src["last_seq"],
+                              "filled": len(src["filled_t"])})
+    return list(out.values())

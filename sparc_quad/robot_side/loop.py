@@ -68,7 +68,8 @@ class RobotLog:
 
 
 class RobotSide:
-    def __init__(self, plant: Plant, port: Port, command: SpineCommand | None = None,
+    def __init__(self, plant: Plant, port: Port,
+                 command: SpineCommand | Callable[[float], SpineCommand] | None = None,
                  config: RobotConfig | None = None,
                  cosim: Callable[[int, float], None] | None = None) -> None:
         self.plant, self.port, self.command = plant, port, command
@@ -113,7 +114,7 @@ class RobotSide:
             heartbeat = Heartbeat(sender=self.cfg.name, fault=self.latched, stamp_s=t, seq=self._hb_seq)
             self._hb_seq += 1
         if self.command is not None and k % self._cmd_every == 0:
-            command = self.command
+            command = self.command(t) if callable(self.command) else self.command
             command.stamp_s, command.seq = t, self._cmd_seq
             self._cmd_seq += 1
         fb = None

@@ -3,6 +3,7 @@ end effector (a `sim.forces.ForceLaw`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from sparc_quad.sim.forces import ForceLaw, push_pull
@@ -13,8 +14,9 @@ __all__ = ["BenchScript", "ForceLaw", "push_pull"]
 
 @dataclass
 class BenchScript:
-    """The spine command the torso computer sends (None: none) and the push on the end effector."""
+    """The spine command the torso computer sends (None: none; a function of robot time s: a moving
+    target) and the push on the end effector."""
 
-    command: SpineCommand | None = None
+    command: SpineCommand | Callable[[float], SpineCommand] | None = None
     force: ForceLaw | None = None
     duration_s: float = 1.0
