@@ -333,9 +333,34 @@ def add_can_options(parser: argparse.ArgumentParser) -> None:
                         "each optionally .gz)")
     g.add_argument("--motor-config", type=Path, default=None, metavar="TOML",
                    help="per-joint CyberGear config (default: the packaged motors.toml)")
+    g.add_argument("--can-option", type=can_option, action="append", default=[], metavar="KEY=VALUE",
+                   help="an interface's own python-can option, repeatable, as `can.Bus(**options)` takes it "
+                        "(socketcand: --can-option host=10.0.0.2 --can-option port=29536; integers, "
+                        "numbers and true/false are converted)")
+
+
+def can_option(text: str) -> tuple[str, object]:
+    """KEY=VALUE for python-can's `can.Bus(**kwargs)`: the value as an int, float or bool when it reads as
+    one, else the text."""
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip().isidentifier():
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE with a Python name as KEY, got {text!r}")
+    if key.strip() in ("interface", "channel", "bitrate"):
+        raise argparse.ArgumentTypeError(f"{key.strip()} has its own option (--can-{key.strip()})")
+    out: object = value
+    for conv in (int, float):
+        try:
+            out = conv(value)
+            break
+        except ValueError:
+            continue
+    if value.lower() in ("true", "false"):
+        out = value.lower() == "true"
+    return key.strip(), out
 
 
 def can_options(args: argparse.Namespace) -> dict[str, object]:
     """The CAN options as keyword arguments of the CAN backend's `make_bus` (see buses.registry)."""
     return {"interface": args.can_interface, "channel": args.can_channel, "bitrate": args.can_bitrate,
-            "log_path": None if args.can_log is None else str(args.can_log), "config_path": args.motor_config}
+            "log_path": None if args.can_log is None else str(args.can_log), "config_path": args.motor_config,
+            "bus_options": dict(args.can_option)}

@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.action == "set-id" and (len(ids) != 1 or args.new_id is None):
         raise BadInput("set-id needs exactly one --ids (the current id) and --new-id")
-    bus = open_can(args.can_interface, args.can_channel, bitrate)
+    bus = open_can(args.can_interface, args.can_channel, bitrate, dict(args.can_option))
     with tools.Session(bus, host, cfg.ranges, None if args.can_log is None else str(args.can_log)) as s:
         if args.action == "scan":
             found = tools.scan(s, ids, args.timeout)
@@ -164,7 +164,7 @@ def _plant_maker(args: argparse.Namespace, ids: list[int]):
 def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: int) -> int:
     make_plant = _plant_maker(args, ids)
     with stop_on_signals() as stop:
-        bus = open_can(args.can_interface, args.can_channel, bitrate)
+        bus = open_can(args.can_interface, args.can_channel, bitrate, dict(args.can_option))
         world = None
         try:
             world, plant = make_plant()
@@ -223,7 +223,7 @@ def _watch(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: in
     if not DEADLINE_MIN_S <= deadline <= DEADLINE_MAX_S:  # from the config: --deadline is checked by its type
         raise BadInput(f"watchdog deadline {deadline:g} s (the config's can_timeout_s) must be in "
                        f"[{DEADLINE_MIN_S:g}, {DEADLINE_MAX_S:g}] s; pass --deadline")
-    bus = open_can(args.can_interface, args.can_channel, bitrate)
+    bus = open_can(args.can_interface, args.can_channel, bitrate, dict(args.can_option))
     dog = StopWatchdog(bus, ids, host, deadline)
     notifier = can.Notifier(bus, [dog.on_message], timeout=0.05)
     print(f"watchdog: motor(s) {ids} on {args.can_interface}:{args.can_channel}, "

@@ -45,7 +45,9 @@ class Formatter(argparse.HelpFormatter):
         if "%(default)" in text or _DEFAULT_IN_HELP.search(text):
             return text
         default = action.default
-        if default is None or default is False or default is argparse.SUPPRESS or not action.option_strings:
+        empty = isinstance(default, (list, tuple)) and not default  # a repeatable option given no times
+        if default is None or default is False or empty or default is argparse.SUPPRESS or \
+                not action.option_strings:
             return text
         if isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
             return text

@@ -195,9 +195,10 @@ def _make_bus(args: argparse.Namespace, lc):
             return registry.make_bus(args.motors, lc=lc, **_bus_options(args))
         except ValueError as exc:
             raise BadInput(str(exc)) from exc
-    from sparc_quad.cli.can_open import bus_open_error, open_errors
+    from sparc_quad.cli.can_open import bus_open_error, open_errors, quiet_repeats
     from spine_module.buses.cybergear.config import ConfigError
 
+    quiet_repeats()
     try:
         return registry.make_bus("can", lc=lc, **_bus_options(args))
     except ConfigError as exc:

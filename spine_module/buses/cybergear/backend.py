@@ -16,9 +16,11 @@ from spine_module.buses.cybergear.driver import CanMotorBus
 
 def make_bus(*, lc=None, config_path: str | Path | None = None, interface: str = "socketcan",
              channel: str = "can0", bitrate: int | None = None,
-             log_path: str | Path | None = None, rate_hz: float | None = None) -> CanMotorBus:
+             log_path: str | Path | None = None, rate_hz: float | None = None,
+             bus_options: dict | None = None) -> CanMotorBus:
     """CyberGears as `config_path` (default: the packaged motors.toml) describes them, on python-can's
-    `interface`/`channel` at `bitrate` bit/s (default: the config's); `log_path` records every frame.
+    `interface`/`channel` at `bitrate` bit/s (default: the config's); `log_path` records every frame;
+    `bus_options` are the interface's own python-can options (socketcand's host and port).
 
     `rate_hz`: the node's actual control rate. The config's timeouts (`can_timeout_s`, `silent_timeout_s`:
     at least two control periods) and its bus-load check are judged at this rate, not at the file's
@@ -31,4 +33,4 @@ def make_bus(*, lc=None, config_path: str | Path | None = None, interface: str =
             where = config_path if config_path is not None else "the packaged motors.toml"
             raise ConfigError(f"{where}: at the node's --rate {rate_hz:g} Hz: {e}") from None
     return CanMotorBus(cfg, interface=interface, channel=channel, bitrate=bitrate or cfg.bitrate,
-                       log_path=log_path)
+                       log_path=log_path, bus_options=bus_options)

@@ -98,7 +98,8 @@ class CanMotorBus(MotorBus):
 
     def __init__(self, config: CyberGearConfig | str | Path | None = None, bus: can.BusABC | None = None, *,
                  interface: str | None = None, channel: str | None = None, bitrate: int | None = None,
-                 log_path: str | Path | None = None, fault_raises: bool = True,
+                 log_path: str | Path | None = None, bus_options: dict | None = None,
+                 fault_raises: bool = True,
                  clock: Callable[[], float] = time.monotonic,
                  stamp_clock: Callable[[], float] | None = None, hold_max_s: float = HOLD_MAX_S,
                  plausibility: PlausibilityLimits = DEFAULT_LIMITS) -> None:
@@ -120,7 +121,7 @@ class CanMotorBus(MotorBus):
         if bus is None:
             if interface is None or channel is None:
                 raise ValueError("give a python-can bus, or interface and channel")
-            bus = open_bus(interface, channel, bitrate or config.bitrate)
+            bus = open_bus(interface, channel, bitrate or config.bitrate, **(bus_options or {}))
         self.bus = bus
         # re-entrant: a signal handler calling stop() may interrupt the main thread inside receive()
         self._lock = threading.RLock()

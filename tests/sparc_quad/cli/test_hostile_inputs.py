@@ -205,3 +205,27 @@ def test_emulate_names_its_extra_before_opening_the_bus(tmp_path):
                          cwd=Path(__file__).resolve().parents[3])
     assert res.returncode == 2, res.stderr
     assert "pip install 'sparc-quad[sim]'" in res.stderr and "bus opened" not in res.stderr, res.stderr
+
+
+@pytest.mark.parametrize(("argv", "says"), [
+    (["--can-interface", "kvaser", "--can-channel", "0"], "kvaser"),
+    (["--can-interface", "socketcand", "--can-channel", "can0"], "--can-option"),
+    (["--can-interface", "nosuchbus", "--can-channel", "x"], "nosuchbus"),
+])
+def test_every_can_interface_opens_or_gives_one_line(argv, says, capsys):
+    """python-can's interfaces that cannot be opened here (kvaser without canlib, socketcand without its host
+    and port, an unknown name) end in exit 2 and one line naming the interface."""
+    code, err = _run(["motors", "scan", *argv, "--timeout", "0.1"], capsys)
+    lines = [line for line in err.strip().splitlines() if " WARNING: " not in line]  # python-can's own
+    assert code == 2 and "Traceback" not in err and len(lines) == 1 and says in lines[0], err
+
+
+def test_can_options_reach_python_can():
+    from sparc_quad.cli.args import can_option
+
+    assert can_option("host=10.0.0.2") == ("host", "10.0.0.2")
+    assert can_option("port=29536") == ("port", 29536)
+    assert can_option("fd=true") == ("fd", True)
+    for bad in ("noequals", "1x=2", "bitrate=500000"):
+        with pytest.raises(Exception, match=r"KEY=VALUE|own option"):
+            can_option(bad)
