@@ -94,8 +94,10 @@ def saturated(tau: np.ndarray, limit_nm: float) -> np.ndarray:
 
 
 def cost_of_transport(energy_j: float, mass_kg: float, distance_m: float, g_m_s2: float) -> float:
-    """energy / (m g d); NaN when the robot moved less than MIN_DISTANCE_M."""
-    return energy_j / (mass_kg * g_m_s2 * abs(distance_m)) if abs(distance_m) > MIN_DISTANCE_M else math.nan
+    """energy / (m g d) over the net forward distance d; NaN (no cost of transport) when the robot went
+    less than MIN_DISTANCE_M forward, backwards included: |d| made a stride of -0.019 m cost 11.6 and a
+    robot walking backwards look efficient."""
+    return energy_j / (mass_kg * g_m_s2 * distance_m) if distance_m > MIN_DISTANCE_M else math.nan
 
 
 def power_terms(tau: np.ndarray, dq: np.ndarray, loss_w_per_nm2: float) -> dict[str, np.ndarray]:

@@ -36,6 +36,8 @@ from sparc_quad.study.spec import SPINE_GAIN_KEYS
 from sparc_quad.study.stats import Estimate, mean_over_seeds, paired_difference, wilson
 
 K_AXIS, D_AXIS = "kx", "dx"
+# metrics a trial contributes as one value over its judged window (the estimand), never as a stride mean
+WINDOW_METRICS = frozenset(name for name in TABLE if name.startswith("cot_"))
 # the costs analysed: the table's CoT family (legs, spine, total) and CoT_elec's sensitivity totals
 METRICS = (*(f"cot_{c}_{g}" for c in COTS for g in GROUPS), *(f"cot_{c}_total" for c in ELEC_SENSITIVITY))
 PLOTTED = ("cot_pos_total", "cot_elec_total")
@@ -66,9 +68,13 @@ class Trial:
     fell: bool
 
     def values(self, metric: str) -> list[float]:
-        """Per-stride values of `metric` when the strides carry it, else the trial's one value."""
+        """The trial's values of `metric`: for a cost (CoT_*, WINDOW_METRICS) its one value over the judged
+        window, energy over the window / (m g x net forward distance), the estimand (a mean of per-stride
+        ratios is biased: a near-zero stride's ratio outweighs whole strides; a trial that went backwards
+        has no cost of transport); for the others the per-stride values when the strides carry them (the
+        within-trial variance of the interval), else the trial's one value."""
         out = []
-        for s in self.metrics.get("strides") or []:
+        for s in ([] if metric in WINDOW_METRICS else self.metrics.get("strides") or []):
             v = s.get(metric)
             if isinstance(v, int | float) and math.isfinite(v):
                 out.append(float(v))
