@@ -100,16 +100,15 @@ def wake_latency_us(text: str) -> int | None:
 
 
 def add_wake_latency_option(p: argparse.ArgumentParser, flag: str = "--wake-latency-us",
-                            when: str = "") -> None:
-    """The PM QoS wake-latency request (`spine_module.node.realtime.hold_wake_latency`), one spelling."""
-    from spine_module.node.realtime import WAKE_LATENCY_DEFAULT_US
-
-    p.add_argument(flag, type=wake_latency_us, default=WAKE_LATENCY_DEFAULT_US, metavar="US|off",
+                            when: str = "", default: int | None = None) -> None:
+    """The PM QoS wake-latency request (`spine_module.node.realtime.hold_wake_latency`), one spelling.
+    `default` None: off (nothing requested: a simulation holds no CPU out of deep idle unless asked)."""
+    p.add_argument(flag, type=wake_latency_us, default=default, metavar="US|off",
                    help=f"{when}while this process runs, keep every CPU's idle wake-up within this many "
                         "microseconds (Linux PM QoS, /dev/cpu_dma_latency; needs root, else skipped with a "
                         "warning): an idle CPU then polls instead of halting, so a message for a waiting "
                         f"peer is taken at once. 0..{WAKE_LATENCY_MAX_US}, or off "
-                        "(default: %(default)s)")
+                        f"(default: {'off' if default is None else default})")
 
 
 def nonempty(text: str) -> str:

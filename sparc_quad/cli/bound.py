@@ -156,7 +156,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                           "thread beside the simulation (measured ~30 %% of this process's CPU per tick on 2 "
                           "vCPUs); `lcm-logger` records them outside this process")
     add_spin_option(lcm, "--lcm-spin-us")
-    add_wake_latency_option(lcm, "--lcm-wake-latency-us", when="--lcm: ")
+    add_wake_latency_option(lcm, "--lcm-wake-latency-us", when="--lcm (a simulation: off unless asked): ")
     lcm.add_argument("--wait-node", type=wait_s, default=30.0,
                      help=f"--lcm: wait this long (wall s, up to {WAIT_MAX_S:g}) for the node's first "
                           "heartbeat")

@@ -41,7 +41,8 @@ def test_help_in_one_style(parser):
         name = "/".join(action.option_strings) or action.dest
         assert action.help, f"{parser.prog} {name} has no help"
         shown = fmt._expand_help(action)
-        if action.option_strings and action.default not in (None, False, argparse.SUPPRESS):
+        empty = isinstance(action.default, list | tuple) and not action.default  # repeatable, given 0 times
+        if action.option_strings and action.default not in (None, False, argparse.SUPPRESS) and not empty:
             assert "(default: " in shown, f"{parser.prog} {name}: {shown!r}"
         assert "None" not in shown and "<class" not in shown and " object at " not in shown, shown
 

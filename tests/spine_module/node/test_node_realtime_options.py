@@ -153,9 +153,13 @@ def test_a_command_run_in_process_leaves_no_wake_latency_request(monkeypatch, tm
     realtime.release_wake_latency()
     # no node answers on memq: the command ends with its "start spine-node first" error, after the request
     rc = main(["bound", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.05", "--duration", "0.1",
-               "--no-plots", "--out", str(tmp_path / "b")])
+               "--lcm-wake-latency-us", "0", "--no-plots", "--out", str(tmp_path / "b")])
     assert rc == 2 and qos.read_bytes() == struct.pack("=i", 0)  # it was made ...
     assert realtime._wake_latency_fds == []  # ... and ended with the command
+    qos.write_bytes(b"")  # a simulation asks for nothing unless told (issue 31: off for bound --lcm)
+    rc = main(["bound", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.05", "--duration", "0.1",
+               "--no-plots", "--out", str(tmp_path / "c")])
+    assert rc == 2 and qos.read_bytes() == b""
 
 
 @pytest.mark.parametrize("make, why", [
