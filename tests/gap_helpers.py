@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import shutil
 from pathlib import Path
 
 from sparc_quad.gap.synth import synth
@@ -133,3 +135,23 @@ def write_bench_truth_plant(path: Path) -> Path:
     eff, eps = bench_truth_effects()
     PlantEffects(list(P.ACTUATED_JOINTS), eff, eps).save(path)
     return path
+
+
+def copy_trial(good: Path, tmp_path: Path, name: str | None = None) -> Path:
+    """A trial CSV and its sidecar copied into `tmp_path` (as `name`.csv, default its own name), the
+    sidecar's URDF and plant made absolute so the copy loads where it is."""
+    dst = tmp_path / (f"{name}.csv" if name else good.name)
+    shutil.copy(good, dst)
+    meta = json.loads(good.with_suffix(".json").read_text())
+    meta["urdf"] = str((good.parent / meta["urdf"]).resolve())
+    meta["plant"] = str((good.parent / meta["plant"]).resolve())
+    dst.with_suffix(".json").write_text(json.dumps(meta))
+    return dst
+
+
+def edit_meta(p: Path, **changes) -> None:
+    """Change keys of a trial's sidecar."""
+    side = p.with_suffix(".json")
+    meta = json.loads(side.read_text())
+    meta.update(changes)
+    side.write_text(json.dumps(meta))

@@ -8,7 +8,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
 from pathlib import Path
 
 import pytest
@@ -16,6 +15,7 @@ import pytest
 from sparc_quad.cli import main
 from sparc_quad.effects import PlantEffects, PlantEffectsError
 from sparc_quad.gap.synth import synth
+from tests.gap_helpers import copy_trial, edit_meta
 
 
 @pytest.fixture(scope="module")
@@ -24,21 +24,6 @@ def good(tmp_path_factory) -> Path:
     return synth(d, [], seed=2, n_trials=1, periods=1, period_s=1.0)["trials"][0]
 
 
-def _copy(good: Path, tmp_path: Path) -> Path:
-    dst = tmp_path / "trial.csv"
-    shutil.copy(good, dst)
-    meta = json.loads(good.with_suffix(".json").read_text())
-    meta["urdf"] = str((good.parent / meta["urdf"]).resolve())
-    meta["plant"] = str((good.parent / meta["plant"]).resolve())
-    dst.with_suffix(".json").write_text(json.dumps(meta))
-    return dst
-
-
-def _meta(p: Path, **changes) -> None:
-    side = p.with_suffix(".json")
-    meta = json.loads(side.read_text())
-    meta.update(changes)
-    side.write_text(json.dumps(meta))
 
 
 def _plant(p: Path, tmp_path: Path, edit) -> str:
@@ -80,11 +65,11 @@ CASES = {
                            "not a physical value"),
     "plant_unknown_key": (lambda p, t: ["--plant", _plant(p, t, lambda d: d.update(frobnicate=1))],
                           "unknown key(s) ['frobnicate']"),
-    "sidecar_gravity_huge": (lambda p, t: _meta(p, gravity=[0, 0, -1e300]), "gravity"),
-    "sidecar_window_huge": (lambda p, t: _meta(p, dq_filter={"window_s": 1e308}), "dq_filter.window_s"),
-    "sidecar_fixed_joint_huge": (lambda p, t: _meta(p, fixed_joints={"q1": 1e300}), "fixed_joints.q1"),
+    "sidecar_gravity_huge": (lambda p, t: edit_meta(p, gravity=[0, 0, -1e300]), "gravity"),
+    "sidecar_window_huge": (lambda p, t: edit_meta(p, dq_filter={"window_s": 1e308}), "dq_filter.window_s"),
+    "sidecar_fixed_joint_huge": (lambda p, t: edit_meta(p, fixed_joints={"q1": 1e300}), "fixed_joints.q1"),
     "rows_cut_from_the_middle": (lambda p, t: _cut_rows(p), "time jumps from"),
-    "sidecar_period_tiny": (lambda p, t: _meta(p, period_s=1e-300), "period_s 1e-300 s"),
+    "sidecar_period_tiny": (lambda p, t: edit_meta(p, period_s=1e-300), "period_s 1e-300 s"),
     "fifo_as_trial": (lambda p, t: _fifo(p), "not a regular file"),
 }
 
@@ -111,7 +96,7 @@ def _fifo(p: Path) -> None:
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_hostile_input_is_one_line_exit_2_nothing_created(good, tmp_path, capsys, case):
     edit, text = CASES[case]
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path, "trial")
     extra = edit(p, tmp_path) or []
     out = tmp_path / "zz" / "a" / "out"
     assert main(["gap", "run", str(p), "--out", str(out), "--no-plots", *extra]) == 2

@@ -5,7 +5,6 @@ torque constants and zero offsets; measured torque; dq differentiated when absen
 from __future__ import annotations
 
 import json
-import shutil
 import struct
 from pathlib import Path
 
@@ -16,6 +15,7 @@ import pytest
 from sparc_quad.cli import main
 from sparc_quad.gap.synth import synth
 from sparc_quad.gap.trial import TrialError, load_lcm_log, load_trial, read_csv
+from tests.gap_helpers import copy_trial, edit_meta
 
 
 @pytest.fixture(scope="module")
@@ -25,21 +25,6 @@ def good(tmp_path_factory) -> Path:
     return res["trials"][0]
 
 
-def _copy(good: Path, tmp_path: Path, name: str = "trial") -> Path:
-    dst = tmp_path / f"{name}.csv"
-    shutil.copy(good, dst)
-    meta = json.loads(good.with_suffix(".json").read_text())
-    meta["urdf"] = str((good.parent / meta["urdf"]).resolve())
-    meta["plant"] = str((good.parent / meta["plant"]).resolve())
-    dst.with_suffix(".json").write_text(json.dumps(meta))
-    return dst
-
-
-def _meta(p: Path, **changes) -> None:
-    side = p.with_suffix(".json")
-    meta = json.loads(side.read_text())
-    meta.update(changes)
-    side.write_text(json.dumps(meta))
 
 
 def _lines(p: Path, fn) -> None:
@@ -75,25 +60,25 @@ def _case(kind: str, p: Path):
             side.write_text("[1, 2]")
             return side, "must be a JSON object"
         case "rate_null":
-            _meta(p, rate_hz=None)
+            edit_meta(p, rate_hz=None)
             return side, "rate_hz must be a number"
         case "rate_nan":
             side.write_text(side.read_text().replace('"rate_hz": 1000.0', '"rate_hz": NaN'))
             return side, "rate_hz must be finite"
         case "rate_zero":
-            _meta(p, rate_hz=0)
+            edit_meta(p, rate_hz=0)
             return side, "rate_hz must be > 0"
         case "gravity_2":
-            _meta(p, gravity=[0.0, -9.81])
+            edit_meta(p, gravity=[0.0, -9.81])
             return side, "gravity must be a list of 3 numbers"
         case "period_zero":
-            _meta(p, period_s=0.0)
+            edit_meta(p, period_s=0.0)
             return side, "period_s must be > 0"
         case "period_negative":
-            _meta(p, period_s=-1.5)
+            edit_meta(p, period_s=-1.5)
             return side, "period_s must be > 0"
         case "torque_kind":
-            _meta(p, torque_kind="estimated")
+            edit_meta(p, torque_kind="estimated")
             return side, "torque_kind must be one of"
         case "all_zero":
             _lines(p, _zero)
@@ -139,7 +124,7 @@ CASES = ["sidecar_number", "sidecar_list", "rate_null", "rate_nan", "rate_zero",
 
 @pytest.mark.parametrize("kind", CASES)
 def test_bad_input_named_and_exit_2(good, tmp_path, capsys, kind):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path, "trial")
     where, pattern = _case(kind, p)
     with pytest.raises(TrialError, match=pattern) as info:
         load_trial(p)
@@ -152,7 +137,7 @@ def test_bad_input_named_and_exit_2(good, tmp_path, capsys, kind):
 
 
 def test_utf8_bom_accepted(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path, "trial")
     p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
     side = p.with_suffix(".json")
     side.write_bytes(b"\xef\xbb\xbf" + side.read_bytes())
@@ -162,7 +147,7 @@ def test_utf8_bom_accepted(good, tmp_path):
 
 
 def test_crlf_and_reader_agree_with_csv_module(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path, "trial")
     p.write_bytes(p.read_bytes().replace(b"\n", b"\r\n"))
     header, data = read_csv(p)
     ref = np.genfromtxt(good, delimiter=",", names=None, skip_header=1)
@@ -270,8 +255,8 @@ def test_transmission_errors_named(good, tmp_path):
 
 
 def test_measured_kind_needs_measured_columns(good, tmp_path):
-    p = _copy(good, tmp_path)
-    _meta(p, torque_kind="measured")
+    p = copy_trial(good, tmp_path, "trial")
+    edit_meta(p, torque_kind="measured")
     with pytest.raises(TrialError, match="required column missing") as info:
         load_trial(p)
     assert info.value.column == "tau_meas_q2"

@@ -11,6 +11,7 @@ import pytest
 
 from sparc_quad.gap.synth import synth
 from sparc_quad.gap.trial import TrialError, load_lcm_log, load_trial
+from tests.gap_helpers import copy_trial
 
 
 @pytest.fixture(scope="module")
@@ -19,15 +20,6 @@ def good(tmp_path_factory) -> Path:
     res = synth(d, [], seed=0, n_trials=1, periods=1, period_s=1.0)
     return res["trials"][0]
 
-
-def _copy(good: Path, tmp_path: Path) -> Path:
-    dst = tmp_path / good.name
-    shutil.copy(good, dst)
-    meta = json.loads(good.with_suffix(".json").read_text())
-    meta["urdf"] = str((good.parent / meta["urdf"]).resolve())
-    meta["plant"] = str((good.parent / meta["plant"]).resolve())
-    dst.with_suffix(".json").write_text(json.dumps(meta))
-    return dst
 
 
 def _edit(path: Path, fn) -> None:
@@ -44,7 +36,7 @@ def test_round_trip(good):
 
 
 def test_missing_column(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path)
     _edit(p, lambda L: L.__setitem__(0, L[0].replace("tau_cmd_q3", "tau_cmd_qX")))
     with pytest.raises(TrialError) as e:
         load_trial(p)
@@ -52,7 +44,7 @@ def test_missing_column(good, tmp_path):
 
 
 def test_required_column_missing(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path)
     def drop(L):
         for i, line in enumerate(L):
             L[i] = ",".join(line.split(",")[:-1])  # drops tau_cmd_q4
@@ -63,7 +55,7 @@ def test_required_column_missing(good, tmp_path):
 
 
 def test_non_monotonic_time(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path)
     def swap(L):
         L[10], L[11] = L[11], L[10]
     _edit(p, swap)
@@ -74,7 +66,7 @@ def test_non_monotonic_time(good, tmp_path):
 
 
 def test_nan(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path)
     def nan(L):
         f = L[5].split(",")
         f[2] = "nan"
@@ -86,7 +78,7 @@ def test_nan(good, tmp_path):
 
 
 def test_joint_not_in_urdf(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path)
     meta = json.loads(p.with_suffix(".json").read_text())
     meta["actuated_joints"] = ["q2", "q3", "q9"]
     p.with_suffix(".json").write_text(json.dumps(meta))
@@ -96,7 +88,7 @@ def test_joint_not_in_urdf(good, tmp_path):
 
 
 def test_column_names_unknown_joint(good, tmp_path):
-    p = _copy(good, tmp_path)
+    p = copy_trial(good, tmp_path)
     _edit(p, lambda L: L.__setitem__(0, L[0] + ",q_q7") or [L.__setitem__(i, L[i] + ",0")
                                                            for i in range(1, len(L))])
     with pytest.raises(TrialError) as e:
@@ -116,7 +108,7 @@ def test_lcm_log_with_decoder(good, tmp_path):
 
     tr = load_trial(good)
     log_path = tmp_path / "run.lcm"
-    meta = json.loads(_copy(good, tmp_path).with_suffix(".json").read_text())
+    meta = json.loads(copy_trial(good, tmp_path).with_suffix(".json").read_text())
     log_path.with_suffix(".json").write_text(json.dumps(meta))
     log = lcm.EventLog(str(log_path), "w", overwrite=True)
     for k in range(50):
