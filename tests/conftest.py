@@ -14,43 +14,14 @@ from tests.node_netns import PERIOD, UDP_COUNTERS, K, lcm_tool, run_in_netns
 
 ROOT = Path(__file__).resolve().parents[1]
 INTEGRATION = ROOT / "tests" / "integration"
-# Modules elsewhere that run a whole workflow end to end (a simulated bench experiment or bound, a gap
-# identification, a study, the README tour, commands in subprocesses): seconds per test, so they are
-# integration tests too. Listed here, in one place, from `pytest --durations=0` of the unit tier
-# (2026-12-02: these 18 modules took 200 of its 237 s).
-WORKFLOW_MODULES = frozenset({
-    "tests/test_readme_tour.py",
-    "tests/sparc_quad/gap/test_gap_effects.py",
-    "tests/sparc_quad/gap/test_gap_workflow.py",
-    "tests/sparc_quad/gap/test_gap_arm_workflow.py",
-    "tests/sparc_quad/gap/test_gap_tx40_workflow.py",
-    "tests/sparc_quad/gap/test_gap_lcm_log.py",
-    "tests/sparc_quad/gap/test_gap_massless.py",
-    "tests/sparc_quad/gap/test_new_effect.py",
-    "tests/sparc_quad/experiments/test_bench_experiments.py",
-    "tests/sparc_quad/experiments/test_can_bench.py",
-    "tests/sparc_quad/study/test_study_report.py",
-    "tests/sparc_quad/study/test_study_run.py",
-    "tests/sparc_quad/study/test_study_trial.py",
-    "tests/sparc_quad/cli/test_can_cli.py",
-    "tests/sparc_quad/cli/test_cli_interrupt.py",
-    "tests/sparc_quad/sim/test_quad_bound.py",
-    "tests/sparc_quad/sim/test_held_steps.py",  # whole bounds, both paths, compared bit for bit
-    "tests/test_packaging.py",  # fresh interpreters per command (the lazy CLI, missing extras)
-    "tests/spine_module/buses/cybergear/test_can_interop.py",
-    "tests/spine_module/buses/cybergear/test_can_crossprocess.py",
-})
 
 
 def pytest_collection_modifyitems(config, items):
-    """Everything under tests/integration/ (several processes, sockets, namespaces) and the workflow
-    modules above carry the `integration` marker, so `-m "not integration"` is the unit tier."""
-    missing = {m for m in WORKFLOW_MODULES if not (ROOT / m).exists()}
-    if missing:  # a renamed module must not drop silently into the unit tier
-        raise pytest.UsageError(f"tests/conftest.py WORKFLOW_MODULES lists missing files: {sorted(missing)}")
+    """Everything under tests/integration/ (several processes, sockets, namespaces, or a whole workflow end
+    to end: seconds per test) carries the `integration` marker, so `-m "not integration"` is the unit tier
+    and a test's tier is where it lives; a unit module marks a single slow test itself."""
     for item in items:
-        path = Path(item.fspath)
-        if INTEGRATION in path.parents or path.relative_to(ROOT).as_posix() in WORKFLOW_MODULES:
+        if INTEGRATION in Path(item.fspath).parents:
             item.add_marker(pytest.mark.integration)
 
 

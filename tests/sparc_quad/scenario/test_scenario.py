@@ -18,7 +18,7 @@ from sparc_quad.study.trial import config_of, trial_scenario
 from tests.paths import ROOT
 
 # `bound` options that are not scenario keys: how and where a run executes and what it writes, never what
-# is simulated (each is tested where it acts: tests/sparc_quad/sim/test_quad_bound.py, test_held_steps.py)
+# is simulated (each is tested where it acts: tests/integration/sim/test_quad_bound.py, test_held_steps.py)
 EXECUTION = {"help", "scenario", "out", "video", "no_plots", "backend", "realtime", "lcm", "lcm_url",
              "lcm_node_states", "lcm_spin_us", "lcm_wake_latency_us", "wait_node"}
 SPINES = KEYS["spine"].choices

@@ -6,14 +6,13 @@ from __future__ import annotations
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from spine_module.control.linalg import solve3
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 HEAVY = ("pybullet", "mujoco", "matplotlib", "scipy", "statsmodels", "tqdm", "example_robot_data")
 
 LOADED_AFTER_HELP = """

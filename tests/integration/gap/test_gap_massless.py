@@ -14,7 +14,7 @@ from sparc_quad.gap.errors import NumericalError
 from sparc_quad.gap.robot import Robot
 from sparc_quad.gap.synth import synth
 from sparc_quad.gap.workflow import run
-from tests.sparc_quad.gap.test_gap_workflow import CHAIN
+from tests.integration.gap.test_gap_workflow import CHAIN
 
 FLANGE = CHAIN.replace("</robot>", """  <joint name="flange" type="revolute">
     <parent link="fore"/><child link="tool"/>
