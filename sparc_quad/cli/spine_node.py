@@ -337,6 +337,11 @@ def _run_inprocess(args: argparse.Namespace) -> int:
     robot, states = run_inprocess(script(args), _node_config(args), plant=plant(args), seed=args.seed)
     out = {"ticks": robot.k, "final_x": [float(v) for v in states[-1].x] if states else None}
     if args.experiment == "static" and states:
+        out["k_x_commanded_n_m"] = float(args.kx)
         out["k_hat_n_m"] = stiffness_from_states(states)
     print(json_text(out))
+    if "k_hat_n_m" in out:
+        k_hat, k_cmd = out["k_hat_n_m"], out["k_x_commanded_n_m"]
+        print(f"static push-pull: fitted k_x {k_hat:.1f} N/m against the commanded {k_cmd:.1f} N/m "
+              f"({100 * (k_hat / k_cmd - 1):+.1f} %)", file=sys.stderr)
     return 0

@@ -1,5 +1,5 @@
-"""pybullet, imported without the build-time banner its C extension prints on stdout at import (it would
-open every command's output and every JSON a command prints on stdout)."""
+"""pybullet, imported without the build-time banner its C extension prints at import (it opened every
+command's output; it goes to stderr, and stdout on some builds)."""
 
 from __future__ import annotations
 
@@ -9,14 +9,15 @@ import sys
 
 
 @contextlib.contextmanager
-def _stdout_silenced():
-    """fd 1 to /dev/null for the duration (the banner is written by C, below sys.stdout)."""
+def _silenced(stream):
+    """The stream's file descriptor to /dev/null for the duration (the banner is written by C, below
+    Python's sys.stdout and sys.stderr)."""
     try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, ValueError, OSError):  # a captured or replaced stdout: nothing to silence
+        fd = stream.fileno()
+    except (AttributeError, ValueError, OSError):  # a captured or replaced stream: nothing to silence
         yield
         return
-    sys.stdout.flush()
+    stream.flush()
     saved = os.dup(fd)
     try:
         with open(os.devnull, "w") as null:
@@ -28,7 +29,7 @@ def _stdout_silenced():
 
 
 if "pybullet" not in sys.modules:
-    with _stdout_silenced():
+    with _silenced(sys.stdout), _silenced(sys.stderr):
         import pybullet  # noqa: F401
 import pybullet as pb  # noqa: E402
 

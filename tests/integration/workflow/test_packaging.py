@@ -105,3 +105,13 @@ def test_gap_synth_runs_on_the_robot_side_install(tmp_path):
                          timeout=300)
     assert res.returncode == 0, res.stderr[-2000:]
     assert list((tmp_path / "g").glob("*.csv"))
+
+
+def test_no_third_party_banner(tmp_path):
+    """pybullet's C extension prints its build time at import: a command's output starts with its own."""
+    res = subprocess.run([sys.executable, "-m", "sparc_quad", "spine-node", "--motors", "inprocess",
+                          "--experiment", "static", "--duration", "1"], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "build time" not in res.stdout + res.stderr
+    assert '"k_x_commanded_n_m": 500.0' in res.stdout and "N/m against the commanded 500.0 N/m" in res.stderr
