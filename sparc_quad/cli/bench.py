@@ -143,11 +143,17 @@ def run_dynamic(args: argparse.Namespace) -> int:
         cases, curves = dynamic.run_dynamic(cfg, _progress(pairs, "dynamic (k, b)", "case"))
         dynamic.write_dynamic(cases, curves, cfg, out)
     print(f"{'k':>5} {'b':>5} {'NRMSE':>7} {'zeta':>6} {'fit':>6} {'lag0':>6} {'drift':>6} {'growth':>6}")
+    print(f"{'N/m':>5} {'N*s/m':>5} {'1':>7} {'1':>6} {'1':>6} {'rad':>6} {'rad':>6} {'1':>6}")
     for c in cases:
         def f(v: float | None) -> str:
             return f"{v:6.3f}" if v is not None else "     -"
         print(f"{c.k:5.0f} {c.b:5.0f} {c.nrmse:7.4f} {c.zeta_ideal:6.3f} {f(c.zeta_fit)} "
               f"{f(c.phase_lag_first_rad)} {f(c.phase_drift_rad)} {f(c.amplitude_growth)}")
+    print("k, b: commanded x stiffness and damping; NRMSE: RMS of the mean response minus the ideal "
+          "spring-damper's, over the release displacement; zeta: the ideal damping ratio b / (2 sqrt(k m)); "
+          "fit: the damping ratio fitted to the measured decay; lag0: phase lag behind the ideal at the "
+          "first zero crossing; drift: its change to the last crossing; growth: last peak / first peak of "
+          "|x - x_d|; -: not defined (too few crossings or peaks above 5 % of the release, e.g. overdamped)")
     print(f"wrote {args.out / 'dynamic.json'}, dynamic.png")
     return 0
 
@@ -164,6 +170,7 @@ def run_pd(args: argparse.Namespace) -> int:
         rows = pd.run_pd(cfg, _progress(pairs, "pd (controller, k_x)", "k"))
         pd.write_pd(rows, cfg, out)
     print(f"{'controller':>10} {'k_x':>5} {'slope mean':>10} {'slope SD':>9} {'R2':>7}")
+    print(f"{'':>10} {'N/m':>5} {'N/m':>10} {'N/m':>9} {'1':>7}")
     for r in rows:
         print(f"{r.controller:>10} {r.k_cmd:5.0f} {r.slope_mean:10.1f} {r.slope_sd:9.2f} {r.r2_pooled:7.4f}")
     print(f"wrote {args.out / 'pd.json'}, pd.png")

@@ -98,6 +98,10 @@ def format_table(rows: list[StaticRow]) -> str:
         lines.append(f"{r.k_cmd:5.0f} | {r.n:5d} {r.k_hat:9.3f} {r.r2:7.4f}"
                      f" [{r.ci95_low:8.3f},{r.ci95_high:9.3f}] {r.rel_err_pct:6.2f}"
                      f" {r.chunk_mean:7.1f}±{r.chunk_sd:6.2f}   || paper: {pk}")
+    lines.append("k_d: commanded k_x, N/m; n: push-pull pairs; k_hat: fitted stiffness (OLS of force on "
+                 "displacement), N/m; R2 its fit; CI95 its 95 % interval, N/m; err%: |k_hat - k_d| / k_d; "
+                 "chunk: k_hat of each of n_chunks consecutive slices of the pairs, mean ± SD, N/m (as the "
+                 "paper's Table IV reports it); paper: the SPARC paper's Table IV")
     return "\n".join(lines)
 
 
