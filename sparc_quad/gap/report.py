@@ -42,11 +42,21 @@ def plot_regimes(path: Path, report: dict, robot) -> None:
     plt.close(fig)
 
 
-def plot_residual_time(path: Path, report: dict, robot, blocks, res0) -> None:
+def plot_residual_time(path: Path, report: dict, robot, blocks, res0) -> tuple[str, int]:
+    """The residual over time of the block holding the largest-residual span (the spans the report names
+    are drawn where they are), else of the first block; (its trial's name, spans drawn)."""
     fig, axes = plt.subplots(robot.nv, 1, figsize=(9, 1.8 * robot.nv + 0.6), sharex=False, squeeze=False)
-    b, r = blocks[0], res0[0]
+    named = report["localisation"]["spans"]
+    pick = 0
+    for s in named:  # largest first
+        hit = [i for i, blk in enumerate(blocks) if blk.trial.name == s["trial"] and len(blk.idx)
+               and blk.trial.t[blk.idx][0] <= s["t0_s"] <= blk.trial.t[blk.idx][-1]]
+        if hit:
+            pick = hit[0]
+            break
+    b, r = blocks[pick], res0[pick]
     t = b.trial.t[b.idx]
-    spans = [s for s in report["localisation"]["spans"] if s["trial"] == b.trial.name]
+    spans = [s for s in named if s["trial"] == b.trial.name and t[0] <= s["t0_s"] <= t[-1]]
     for v, j in enumerate(robot.joints):
         ax = axes[v, 0]
         ax.plot(t, r[:, v], lw=0.7)
@@ -54,11 +64,14 @@ def plot_residual_time(path: Path, report: dict, robot, blocks, res0) -> None:
             if s["joint"] == j:
                 ax.axvspan(s["t0_s"], s["t1_s"], color="r", alpha=0.15)
         ax.set_ylabel(f"{j} N*m")
-    axes[-1, 0].set_xlabel(f"t (s), trial {b.trial.name}; shaded: largest-residual spans")
+    shaded = f"shaded: the {len(spans)} largest-residual span(s) in it" if spans else \
+        "none of the largest-residual spans falls in this trial"
+    axes[-1, 0].set_xlabel(f"t (s), trial {b.trial.name}; {shaded}")
     fig.suptitle("Nominal-model inverse-dynamics residual")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return b.trial.name, len(spans)
 
 
 def plot_overlay_residual(path: Path, robot, ho_blocks, res_b, res_a, floor) -> None:
