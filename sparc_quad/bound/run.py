@@ -24,6 +24,7 @@ from sparc_quad.jsonfmt import json_text
 from sparc_quad.metrics import table as metrics_table
 from sparc_quad.sim.bound_log import COLUMNS, DERIVED, HEADER, LEGS
 from sparc_quad.sim.fall import FALL_REASONS, fall_code
+from sparc_quad.sim.hosts import leg_winding
 from sparc_quad.sim.quadruped_world import HELD_STATE, QuadWorld, WorldConfig, make_world
 from sparc_quad.sim.sim_spine import DirectSpine, SimSpine
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
@@ -355,7 +356,8 @@ def run_bound(
     ctx = metrics_table.Context(
         dt_s=dt, mass_kg=mass, gravity_m_s2=cfg.world.gravity_m_s2, slope_rad=cfg.world.slope_rad,
         leg_torque_limit_nm=float(limits["leg_torque_limit_nm"]),
-        spine_torque_limit_nm=float(limits["spine_torque_limit_nm"]), spine_actuated=actuated)
+        spine_torque_limit_nm=float(limits["spine_torque_limit_nm"]), spine_actuated=actuated,
+        leg_winding=leg_winding(cfg.world.host))
     facts = run_facts(series, cfg, mass, fell, fall_t, first_reason, t_start, actuated)
     metrics = metrics_table.merge_disjoint(facts, metrics_table.measure(measured, ctx, t_start))
     metrics["wall_time_s"] = wall

@@ -54,8 +54,9 @@ class Context:
     leg_torque_limit_nm: float
     spine_torque_limit_nm: float
     spine_actuated: bool
-    leg_winding: P.WindingLoss = P.SOLO12_WINDING
-    spine_winding: P.WindingLoss = P.CYBERGEAR_WINDING
+    # the actuators' winding losses (CoT_elec); None: not known for this robot, CoT_elec is not defined (NaN)
+    leg_winding: P.WindingLoss | None = P.SOLO12_WINDING
+    spine_winding: P.WindingLoss | None = P.CYBERGEAR_WINDING
 
 
 @dataclass(frozen=True)
@@ -157,6 +158,11 @@ _LEG_P, _SPINE_P, _LEG_M = (_IDX[c] for c in DERIVED)
 _LEG_HFE_KFE = [_IDX[f"tau_{leg}_{j}"] for leg in LEGS for j in ("hfe", "kfe")]
 
 
+def _loss(winding: P.WindingLoss | None) -> float:
+    """W/(N*m)^2 of an actuator's winding loss; NaN when not known (its CoT_elec is then NaN)."""
+    return math.nan if winding is None else winding.loss_w_per_nm2
+
+
 def derived_columns(s: np.ndarray) -> None:
     """Fill the log's leg_power_w, spine_power_w (sum of |tau dq|, W) and leg_tau_max (max |tau| of HFE and
     KFE, N*m) from its torque and rate columns, in place."""
@@ -172,8 +178,8 @@ class Series:
         self.s, self.ctx = s, ctx
         self.tau_legs, self.dq_legs = s[:, _LEG_TAU], s[:, _LEG_DQ]
         self.tau_spine, self.dq_spine = s[:, _SPINE_TAU], s[:, _SPINE_DQ]
-        legs = power_terms(self.tau_legs, self.dq_legs, ctx.leg_winding.loss_w_per_nm2)
-        spine = power_terms(self.tau_spine, self.dq_spine, ctx.spine_winding.loss_w_per_nm2)
+        legs = power_terms(self.tau_legs, self.dq_legs, _loss(ctx.leg_winding))
+        spine = power_terms(self.tau_spine, self.dq_spine, _loss(ctx.spine_winding))
         self.spine_abs_w = spine["abs"]  # what the joints do, actuator or not
         if not ctx.spine_actuated:
             spine = {c: np.zeros(len(s)) for c in spine}

@@ -20,7 +20,7 @@ from sparc_quad.sim.host_file import HOST_FILE, HostFile, load_host_file
 from sparc_quad.sim.quadruped_urdf import DEFAULT_HOST, files_of, robot_paths
 
 __all__ = ["DEFAULT_HOST", "HOSTS", "HostFiles", "host_files", "host_of", "leg_torque_limit_nm",
-           "listed_hosts"]
+           "leg_winding", "listed_hosts"]
 FIRST = ("solo12", "a1", spined_dog.HOST)  # listed first, in this order; the others by name
 
 
@@ -88,6 +88,15 @@ def host_files(host: str, robots_dir: Path = ROBOTS_DIR) -> HostFiles:
     folder = spec.folder if host in listed_hosts(robots_dir) else _spliced(str(spec.path))
     urdf, meta = robot_paths(folder, spec.name)
     return HostFiles(urdf, meta, None)
+
+
+def leg_winding(host: str):
+    """The leg actuators' winding loss (`spine_module.params.WindingLoss`) of `host`, or None where it is
+    not known: only Solo12's actuator is documented here, so CoT_elec is not defined on the other hosts (it
+    was computed with Solo12's constants on every host)."""
+    from spine_module import params as P
+
+    return P.SOLO12_WINDING if host == "solo12" else None
 
 
 def leg_torque_limit_nm(host: str) -> float:

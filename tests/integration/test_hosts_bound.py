@@ -37,3 +37,12 @@ def test_a_users_host_file_bounds_outside_robots(tmp_path, monkeypatch):
     doc = json.loads((out / "scenario.json").read_text())
     assert doc["scenario"]["host_file"] == str(mine / "host.toml") and doc["scenario"]["height"] == 0.28
     assert list((tmp_path / "cache" / "sparc-quad" / "hosts").glob("go1-*/sparc_go1.urdf"))
+
+
+def test_cot_elec_only_where_the_leg_actuators_are_known():
+    """CoT_elec needs the legs' winding losses: Solo12's are documented (spine_module.params), the other
+    hosts' are not, so it is not defined there (it was computed with Solo12's constants on every host)."""
+    solo = run_bound(Scenario(host="solo12", duration=2.0)).metrics
+    a1 = run_bound(Scenario(host="a1", duration=2.0)).metrics
+    assert solo["cot_elec_total"] > solo["cot_pos_total"] > 0  # winding losses add to the positive work
+    assert a1["cot_pos_total"] > 0 and a1["cot_elec_total"] != a1["cot_elec_total"]  # NaN
