@@ -108,6 +108,8 @@ def bound_config(s: Scenario) -> BoundConfig:
         duration_s=r.duration, world=world, spine=spine, spine_variant=r.spine,
         friction_compensation=r.friction_comp, stop_on_fall=False, actuator_latency_steps=r.latency_steps,
         settle_s=r.settle, spine_rate_hz=r.spine_rate_hz)
+    if r.host == spined_dog.HOST and r.host_file is None:  # the dog's own spine, in every gait
+        common["spine_params"] = A.spine_params()
     if r.gait == "raibert":
         params = replace(_RAIBERT, frequency_hz=r.frequency, step_height_m=r.step_height, duty=r.duty,
                          body_kp=r.body_kp, body_kd=r.body_kd, phase_offset=r.phase_offset,
