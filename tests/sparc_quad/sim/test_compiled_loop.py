@@ -51,8 +51,8 @@ def _both(cfg: BoundConfig):
 
 
 def _same_metrics(a: dict, b: dict) -> list[str]:
-    def same(x, y):
-        return x == y or (isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y))
+    def same(x, y):  # NaN equals NaN, in lists of per-stride dicts too (a stride with no forward distance)
+        return x == y or repr(x) == repr(y)
 
     return [k for k in a if k not in ("wall_time_s", "physics_wall_time_s", "loop") and not same(a[k], b[k])]
 
