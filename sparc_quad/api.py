@@ -16,23 +16,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from sparc_quad.scenario import Scenario, bound_config, write_scenario
-
-
-def spine_for(scenario: Scenario, cfg=None):
-    """The spine a scenario's `spine_path` asks for: None (the controller called in process, the default
-    of `bound.run.run_bound`) or the spine node on its in-process bus."""
-    if scenario.spine_path != "node":
-        return None
-    from sparc_quad.gaits import authors_run
-    from sparc_quad.robot_side.quad import NodeSpine
-
-    cfg = cfg if cfg is not None else bound_config(scenario)
-    # the dog's spine model ranges over +-10 rad and starts at full gains (authors_run.node_config)
-    node_config = authors_run.node_config() if cfg.spine_params is not None else None
-    return NodeSpine.inprocess(cfg.spine, cfg.friction_compensation, node_config=node_config,
-                               schedule=cfg.spine_schedule, spine=cfg.spine_params,
-                               torso_accel=cfg.spine_torso_accel)
+from sparc_quad.scenario import Scenario, bound_config, spine_of, write_scenario
 
 
 def run_bound(scenario: Scenario, *, backend: str = "auto", realtime: bool = False, spine=None,
@@ -43,7 +27,7 @@ def run_bound(scenario: Scenario, *, backend: str = "auto", realtime: bool = Fal
     from sparc_quad.bound import run as bound_run
 
     cfg = replace(bound_config(scenario), backend=backend, realtime=realtime)
-    spine = spine if spine is not None else spine_for(scenario, cfg)
+    spine = spine if spine is not None else spine_of(scenario, cfg)
     result = bound_run.run_bound(cfg, spine=spine, video=video, stop=stop)
     result.scenario = scenario
     return result

@@ -4,9 +4,7 @@ plots."""
 from __future__ import annotations
 
 import argparse
-import json
 import logging
-import math
 import signal
 import threading
 import warnings
@@ -21,7 +19,7 @@ from sparc_quad.cli.args import (
     output_dir,
     wait_s,
 )
-from sparc_quad.cli.errors import BadInput, bad_input
+from sparc_quad.cli.errors import BadInput
 from sparc_quad.cli.output import atomic_dir, moved
 from sparc_quad.jsonfmt import json_text
 from sparc_quad.scenario import (
@@ -190,55 +188,17 @@ def scenario_from_args(args: argparse.Namespace) -> Scenario:
         raise BadInput(f"{option(exc.key) if exc.key else 'scenario'}: {exc.reason}{where}") from None
 
 
-def config_from_args(args: argparse.Namespace):
-    """The run's BoundConfig (imports the simulator)."""
+def config_from_args(args: argparse.Namespace, scenario: Scenario | None = None):
+    """The run's BoundConfig (imports the simulator); BadInput naming the option its robot or engine
+    cannot run (`sparc_quad.scenario.checks`)."""
     from dataclasses import replace
 
-    scenario = scenario_from_args(args)
-    with bad_input(ValueError, prefix="--gait sine: "):
+    scenario = scenario if scenario is not None else scenario_from_args(args)
+    try:
         cfg = bound_config(scenario)
+    except ScenarioError as exc:
+        raise BadInput(f"{option(exc.key) if exc.key else 'scenario'}: {exc.reason}") from None
     return replace(cfg, realtime=args.realtime, backend=args.backend)
-
-
-def check_world(cfg) -> None:
-    """BadInput for an estimator the engine cannot feed: `authors-cvel` reads MuJoCo's cvel one step late,
-    so the estimate must be at least that late (--imu-delay)."""
-    from sparc_quad.sim.engines import world_class
-    from sparc_quad.sim.quadruped_world import twist_lag_problem
-
-    w = cfg.world
-    if w.base_motion != "authors-cvel":
-        return
-    problem = twist_lag_problem(w.base_motion, world_class(w.engine).cvel_lag_steps, w.imu.delay_steps)
-    if problem is not None:
-        raise BadInput(f"--base-motion authors-cvel with --engine {w.engine}: {problem} (give --imu-delay 1 "
-                       "or more, or another --base-motion)")
-
-
-def check_gait(cfg) -> None:
-    """BadInput for a gait the legs cannot walk: the sine bound's own check of its foot targets, and for
-    the Raibert bound a stance longer than the legs can sweep at the gait's hip height (the target speed
-    is then out of reach, whatever the controller does)."""
-    from sparc_quad.gaits.bound import BoundParams
-    from sparc_quad.sim.hosts import host_files
-
-    legs = json.loads(host_files(cfg.world.host).meta.read_text())["legs"].values()
-    reach = min(leg["thigh_m"] + leg["shank_m"] for leg in legs)
-    gait = cfg.gait
-    if not isinstance(gait, BoundParams):
-        with bad_input(ValueError, prefix="--gait sine: "):
-            gait.validate(reach)
-        return
-    if reach <= gait.height_m:
-        return
-    sweep_max = 2.0 * math.sqrt(reach**2 - gait.height_m**2)  # foot travel under the hip in one stance
-    duty = gait.duty_at(gait.speed_m_s)
-    sweep = gait.speed_m_s * duty / gait.frequency_hz
-    if sweep > sweep_max:
-        raise BadInput(f"--speed {gait.speed_m_s:g} m/s at {gait.frequency_hz:g} Hz needs a stance stride of "
-                       f"{sweep:.3f} m; the {cfg.world.host} legs ({reach:.3f} m at hip height "
-                       f"{gait.height_m:g} m) sweep at most {sweep_max:.3f} m: at most about "
-                       f"{sweep_max * gait.frequency_hz / duty:.2f} m/s")
 
 
 def speed_warning(metrics: dict, target_m_s: float | None) -> str | None:
@@ -277,9 +237,7 @@ def run(args: argparse.Namespace) -> int:
     missing = engine_error(scenario.engine)
     if missing is not None:
         raise BadInput(missing)
-    cfg = config_from_args(args)
-    check_gait(cfg)
-    check_world(cfg)
+    cfg = config_from_args(args, scenario)
     spine = None
     if args.lcm:
         from sparc_quad.robot_side.quad import NodeSpine

@@ -46,24 +46,22 @@ CONFIRM_HOURS = 2.0  # a study estimated longer than this asks for --yes
 SIM_S_PER_CPU_S = 5.0
 
 
-def estimate_hours(spec_path: Path, trials: int, workers: int | None) -> float:
-    """Wall hours of `trials` trials of the spec's duration on `workers` processes (raibert-opt counts its
-    search's evaluations per cell)."""
-    import tomllib
-
+def estimate_hours(spec, workers: int | None) -> float:
+    """Wall hours of a spec's trials (counted before expansion, `Spec.size`) on `workers` processes, at the
+    longest duration it asks for; raibert-opt counts its search's evaluations per cell."""
     from sparc_quad.study.executors import default_workers
 
-    data = tomllib.loads(Path(spec_path).read_text(encoding="utf-8"))
-    base = data.get("scenario", {})
-    durations = data.get("grid", {}).get("duration") or [base.get("duration", 10.0)]
-    duration = max(float(d) for d in durations if isinstance(d, int | float)) if durations else 10.0
-    per_trial = duration
-    if "raibert-opt" in (base.get("gait"), *data.get("grid", {}).get("gait", [])):
-        search = [base.get(k, d) for k, d in (("popsize", 6), ("iterations", 5), ("opt_restarts", 2),
-                                               ("opt_trial_seeds", 2), ("opt_duration", 6.0))]
-        if all(isinstance(v, int | float) for v in search):  # a grid over them: the study's own count
-            per_trial += math.prod(search)
-    cpu_s = trials * per_trial / SIM_S_PER_CPU_S
+    def values(key: str, default):
+        v = spec.grid.get(key, (spec.base.get(key, default),))
+        return [x for x in v if isinstance(x, int | float) and not isinstance(x, bool)] or [default]
+
+    per_trial = max(values("duration", 10.0))
+    if "raibert-opt" in values("gait", "raibert") or "raibert-opt" in (spec.base.get("gait"),
+                                                                       *spec.grid.get("gait", ())):
+        per_trial += math.prod(max(values(k, d)) for k, d in (("popsize", 6), ("iterations", 5),
+                                                               ("opt_restarts", 2), ("opt_trial_seeds", 2),
+                                                               ("opt_duration", 6.0)))
+    cpu_s = spec.size() * per_trial / SIM_S_PER_CPU_S
     return cpu_s / max(1, workers or default_workers()) / 3600.0
 
 
@@ -141,8 +139,8 @@ def run(args: argparse.Namespace) -> int:
     from sparc_quad.study.spec import SpecError, load_spec
 
     try:
-        size = load_spec(args.spec, check=False).size()  # sized before it is built
-        hours = estimate_hours(args.spec, size, args.workers)
+        sized = load_spec(args.spec, check=False)  # sized before it is built
+        size, hours = sized.size(), estimate_hours(sized, args.workers)
         if hours > CONFIRM_HOURS and not args.yes:
             raise BadInput(f"{size} trials, about {hours:.1f} h with {args.workers or 'one worker per core'} "
                            f"(at {SIM_S_PER_CPU_S:g} simulated s per CPU s); add --yes to run it")

@@ -9,7 +9,7 @@ place a scenario becomes the simulator's configuration.
 
 from sparc_quad.scenario.files import SCENARIO_FILE, document, load_scenario, to_toml, write_scenario
 from sparc_quad.scenario.model import DEFAULTS, GAITS, KEYS, Key, Scenario, ScenarioError
-from sparc_quad.scenario.resolve import bound_config, defaults, resolved
+from sparc_quad.scenario.resolve import bound_config, defaults, resolved, spine_of
 
 __all__ = ["DEFAULTS", "GAITS", "KEYS", "SCENARIO_FILE", "Key", "Scenario", "ScenarioError", "bound_config",
-           "defaults", "document", "load_scenario", "resolved", "to_toml", "write_scenario"]
+           "defaults", "document", "load_scenario", "resolved", "spine_of", "to_toml", "write_scenario"]

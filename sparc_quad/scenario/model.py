@@ -25,8 +25,6 @@ from spine_module.messages import codec
 GAITS = ("raibert", "sine")
 SINE_VARIANTS = ("authors", "literal")
 SPINE_PATHS = ("direct", "node")
-# spines whose k, d and controller options are fixed by the variant itself (P.K_RIGID_IMPEDANCE, locked)
-FIXED_SPINES = ("rigid", "rigid-impedance")
 SEED_MAX = 2**32 - 1  # numpy's and pybullet's seed range
 DURATION_MAX_S = 600.0  # a run keeps its whole 1 kHz log in memory (docs/cli.md)
 

@@ -17,6 +17,7 @@ from sparc_quad.bound.run import BoundConfig
 from sparc_quad.gaits import authors_run as A
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
+from sparc_quad.scenario.checks import check_runnable
 from sparc_quad.scenario.model import KEYS, Scenario, ScenarioError
 from sparc_quad.sim import spined_dog
 from sparc_quad.sim.hosts import host_of
@@ -92,8 +93,28 @@ def resolved(s: Scenario) -> Scenario:
 
 
 def bound_config(s: Scenario) -> BoundConfig:
-    """The simulator's configuration of scenario `s` (defaults filled, the seed's perturbation applied)."""
-    r = resolved(s)
+    """The simulator's configuration of scenario `s` (defaults filled, the seed's perturbation applied);
+    ScenarioError naming the key when its robot or engine cannot run it (`checks.check_runnable`)."""
+    cfg = _bound_config(resolved(s))
+    check_runnable(cfg)
+    return cfg
+
+
+def spine_of(s: Scenario, cfg: BoundConfig):
+    """The spine `s.spine_path` asks for: None (the controller called in process, `bound.run.run_bound`'s
+    default) or the spine node on its in-process bus (the dog's spine model ranges over +-10 rad and
+    starts at full gains: `authors_run.node_config`)."""
+    if s.spine_path != "node":
+        return None
+    from sparc_quad.robot_side.quad import NodeSpine
+
+    node_config = A.node_config() if cfg.spine_params is not None else None
+    return NodeSpine.inprocess(cfg.spine, cfg.friction_compensation, node_config=node_config,
+                               schedule=cfg.spine_schedule, spine=cfg.spine_params,
+                               torso_accel=cfg.spine_torso_accel)
+
+
+def _bound_config(r: Scenario) -> BoundConfig:
     pert = perturbation(r.seed)
     authors = authors_run(r)
     base_imu = A.EXACT_IMU if authors else ImuConfig()

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from sparc_quad.bound.run import BoundConfig, run_bound
 from sparc_quad.metrics import merge_disjoint
-from sparc_quad.scenario import Scenario, ScenarioError, bound_config, resolved
+from sparc_quad.scenario import KEYS, Scenario, ScenarioError, bound_config, resolved, spine_of
 from sparc_quad.sim.seed_variation import perturbation
 
-GAITS = ("sine", "raibert", "raibert-opt")
+GAITS = (*KEYS["gait"].choices, "raibert-opt")  # a study's gaits: a scenario's, and the tuned Raibert bound
 
 
 def scenario_of(config: dict) -> Scenario:
@@ -59,8 +59,9 @@ def _flat(metrics: dict) -> dict:
 
 def run_fixed_trial(config: dict) -> dict:
     """One trial with the gait parameters as given (gait A, or the Raibert bound untuned)."""
-    cfg = config_of(config)
-    result = run_bound(cfg)
+    scenario = scenario_of(config)
+    cfg = bound_config(scenario)
+    result = run_bound(cfg, spine=spine_of(scenario, cfg))  # spine_path node: the node, as `bound` runs it
     m = result.metrics
     out = merge_disjoint(_flat({k: v for k, v in m.items() if k != "strides"}),
                          perturbation(int(config.get("seed", 0))).as_metrics())

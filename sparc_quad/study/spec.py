@@ -26,12 +26,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from sparc_quad.scenario import KEYS, ScenarioError
+from sparc_quad.study.fixed_trial import GAITS
+from sparc_quad.study.raibert_opt import OPT_KEYS as SEARCH_KEYS
 
-GAITS = ("sine", "raibert", "raibert-opt")
-SPINES = KEYS["spine"].choices
 # the spine's gain keys (stiffness N/m or N*m/rad, damping N*s/m or N*m*s/rad): a report's k, d axes
 SPINE_GAIN_KEYS = ("kx", "kz", "kth", "dx", "dz", "dth")
-OPT_KEYS = ("popsize", "iterations", "opt_duration", "opt_seed", "opt_restarts", "opt_trial_seeds")
+# raibert-opt's search keys (checked with the search itself: raibert_opt.check_search); `tuned` is a table
+OPT_KEYS = tuple(k for k in SEARCH_KEYS if k != "tuned")
 STUDY_KEYS = ("name", "description", "seeds")
 MOVED = {"gait": "gait", "duration": "duration", "speeds": "speed", "slopes": "slope"}
 MAX_TRIALS = 100_000  # refused at once above this (the count is computed before anything is built)

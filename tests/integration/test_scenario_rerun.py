@@ -66,3 +66,16 @@ def test_the_python_api_runs_what_the_cli_runs(tmp_path):
     assert {p.name for p in paths} >= {"scenario.json", "metrics.json", "timeseries.csv"}
     series = [(tmp_path / d / "timeseries.csv").read_bytes() for d in ("cli", "api")]
     assert series[0] == series[1]
+
+
+def test_a_study_cell_on_the_node_path_runs_the_node_as_bound_does(tmp_path):
+    """`spine_path = "node"` in a study cell runs the spine node, as `bound --spine-path node` does (a study
+    trial ran the direct path whatever the key said), and both give the same series."""
+    from sparc_quad.study.trial import run_trial
+
+    m = run_trial({"gait": "raibert", "duration": 0.5, "spine_path": "node"})
+    assert m["spine_path"] == "node"
+    assert main(["bound", "--duration", "0.5", "--spine-path", "node", "--no-plots", "--out",
+                 str(tmp_path / "b")]) == 0
+    cli = json.loads((tmp_path / "b" / "metrics.json").read_text())
+    assert cli["spine_path"] == "node" and cli["distance_m"] == m["distance_m"]

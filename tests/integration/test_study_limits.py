@@ -62,6 +62,7 @@ def test_ctrl_c_of_a_large_study_exits_130_with_whole_records(tmp_path):
     assert len(rows) - 1 == len(records) >= 1  # the table lists exactly the whole records
 
 
+@pytest.mark.timeout(180)
 def test_a_silent_scheduler_is_named(tmp_path, capsys):
     """A TCP listener that accepts and never answers: exit 2 naming it, within the timeout."""
     pytest.importorskip("distributed")
@@ -84,10 +85,8 @@ def test_a_silent_scheduler_is_named(tmp_path, capsys):
     spec = tmp_path / "s.toml"
     spec.write_text('[scenario]\ngait = "raibert"\nduration = 0.3\n')
     try:
-        t0 = time.monotonic()
         code = main(["study", "run", str(spec), "--out", str(tmp_path / "o"), "--no-progress", "--scheduler",
                      f"tcp://127.0.0.1:{server.getsockname()[1]}", "--scheduler-timeout", "2"])
-        elapsed = time.monotonic() - t0
     finally:
         stop.set()
         thread.join()
@@ -95,8 +94,7 @@ def test_a_silent_scheduler_is_named(tmp_path, capsys):
             conn.close()
         server.close()
     err = capsys.readouterr().err
-    assert code == 2 and "127.0.0.1" in err and "Traceback" not in err, err
-    assert elapsed < 60
+    assert code == 2 and "127.0.0.1" in err and "Traceback" not in err, err  # a hang: pytest-timeout
 
 
 def test_a_full_disk_is_one_line_and_the_records_stay_whole(tmp_path, capsys, monkeypatch):
@@ -123,7 +121,7 @@ def test_a_full_disk_is_one_line_and_the_records_stay_whole(tmp_path, capsys, mo
     assert len(list((tmp_path / "o" / "trials").glob("*.json"))) == 1  # the record written before is whole
 
 
-def test_a_long_study_asks_for_yes_and_a_huge_one_is_refused_at_once(tmp_path, capsys):
+def test_a_long_study_asks_for_yes_and_a_huge_one_is_refused_at_once(tmp_path, capsys, monkeypatch):
     long = Path(_large_spec(tmp_path, cells=1000))
     long.write_text(long.read_text().replace("duration = 0.3", "duration = 10.0"))
     code = main(["study", "run", str(long), "--out", str(tmp_path / "o"), "--workers", "1"])
@@ -133,12 +131,14 @@ def test_a_long_study_asks_for_yes_and_a_huge_one_is_refused_at_once(tmp_path, c
     assert not (tmp_path / "o").exists()  # nothing was created
     huge = tmp_path / "huge.toml"
     huge.write_text("[study]\nseeds = 1000000000\n")
-    t0 = time.monotonic()
     assert main(["study", "run", str(huge), "--out", str(tmp_path / "h")]) == 2
-    assert "study.seeds" in capsys.readouterr().err and time.monotonic() - t0 < 10
+    assert "study.seeds" in capsys.readouterr().err and not (tmp_path / "h").exists()
     big = tmp_path / "big.toml"
     kx = ", ".join(str(i) for i in range(1, 1001))
     big.write_text(f"[study]\nseeds = 10000\n[grid]\nkx = [{kx}]\n")
-    t0 = time.monotonic()
+    from sparc_quad.study import spec as spec_module
+
+    built = []
+    monkeypatch.setattr(spec_module, "expand", lambda s: built.append(s) or [])  # sized, never built
     assert main(["study", "run", str(big), "--out", str(tmp_path / "b")]) == 2
-    assert "more than 100000" in capsys.readouterr().err and time.monotonic() - t0 < 10
+    assert "more than 100000" in capsys.readouterr().err and built == [] and not (tmp_path / "b").exists()
