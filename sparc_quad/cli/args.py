@@ -15,6 +15,7 @@ import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from sparc_quad.limits import SEED_MAX, SIM_DURATION_MAX_S
 from spine_module import params as P
 from spine_module.messages import codec
 
@@ -58,10 +59,8 @@ def in_range(lo: float | None = None, hi: float | None = None, *, lo_open: bool 
 # ---- limits of what a run can do (each with its reason) ----
 LOOP_RATE_MAX_HZ = P.CONTROL_RATE_HZ  # a Python loop paced by the monotonic clock keeps 1 kHz, not more
 NODE_RATE_MIN_HZ = 100.0  # the node's deadlines (torso stale 20 ms) need a tick at least every 10 ms
-SIM_DURATION_MAX_S = 600.0  # simulated runs keep their whole log in memory at 1 kHz (see docs/cli.md)
 WALL_DURATION_MAX_S = 7 * 86400.0  # runs that keep no log (node, emulator, watchdog, spine-cmd): a week
 WAIT_MAX_S = 3600.0  # waits for a peer or a reply
-SEED_MAX = 2**32 - 1  # numpy's and pybullet's seed range
 SPIN_MAX_US = 100_000.0  # a lockstep poll longer than 0.1 s is a busy loop, not a wait
 
 

@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+from sparc_quad.limits import SEED_MAX, SIM_DURATION_MAX_S
 from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES
 from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
 from sparc_quad.sim.quadruped_world import BASE_MOTIONS
@@ -25,8 +26,7 @@ from spine_module.messages import codec
 GAITS = ("raibert", "sine")
 SINE_VARIANTS = ("authors", "literal")
 SPINE_PATHS = ("direct", "node")
-SEED_MAX = 2**32 - 1  # numpy's and pybullet's seed range
-DURATION_MAX_S = 600.0  # a run keeps its whole 1 kHz log in memory (docs/cli.md)
+DURATION_MAX_S = SIM_DURATION_MAX_S
 
 
 class ScenarioError(ValueError):
