@@ -25,6 +25,7 @@ import lcm
 
 from spine_module.buses.base import MotorBus, MotorBusError, MotorCommand, MotorFeedback
 from spine_module.messages import channels, codec
+from spine_module.messages.dispatch import dispatch
 
 # Each receive() dispatches at most this many LCM messages: with a shared handle, a flood on another channel
 # (thousands of queued commands) would otherwise be drained, message by message, inside one receive.
@@ -45,9 +46,8 @@ def handle(lc: lcm.LCM, timeout_s: float, spin_s: float = 0.0) -> int:
     if spin_s > 0.0:
         clock, yield_cpu = _clock, _yield_cpu
         end = clock() + min(spin_s, timeout_s)
-        poll = lc.handle_timeout
         while True:
-            got = poll(0)
+            got = dispatch(lc, 0)
             if got != 0:
                 return got
             if clock() >= end:
@@ -56,12 +56,7 @@ def handle(lc: lcm.LCM, timeout_s: float, spin_s: float = 0.0) -> int:
         timeout_s -= spin_s
         if timeout_s <= 0.0:
             return 0
-    try:
-        return lc.handle_timeout(max(1, int(timeout_s * 1000)))
-    except OSError:  # LCM returns -1 when a signal interrupts the wait (EINTR): nothing was dispatched, and
-        # the caller's loop sees the stop request (a Ctrl-C on a lockstep node waiting for its robot was an
-        # "internal error", exit 1)
-        return 0
+    return dispatch(lc, max(1, int(timeout_s * 1000)))  # a signal: 0, the caller's loop sees the stop
 
 
 class LcmMotorBus(MotorBus):
@@ -126,7 +121,7 @@ class LcmMotorBus(MotorBus):
             if remaining <= 0:
                 if n and now >= budget_end:  # a flood on another channel: the rest waits for next tick
                     break
-                if self.lc.handle_timeout(0) <= 0:
+                if dispatch(self.lc, 0) <= 0:
                     break
                 n += 1
                 continue

@@ -21,6 +21,7 @@ from spine_module.messages import (
     channels,
     codec,
 )
+from spine_module.messages.dispatch import dispatch
 
 log = logging.getLogger("spine_module.node")
 
@@ -277,7 +278,7 @@ class LcmNodeIO(NodeIO):
         """Dispatch what has arrived, bounded in count and time (a flood waits for the next tick)."""
         deadline = time.perf_counter() + POLL_BUDGET_S
         n = 0
-        while n < MAX_MESSAGES_PER_POLL and self.lc.handle_timeout(0) > 0:
+        while n < MAX_MESSAGES_PER_POLL and dispatch(self.lc, 0) > 0:
             n += 1
             if time.perf_counter() >= deadline:
                 break
@@ -291,16 +292,14 @@ class LcmNodeIO(NodeIO):
             left = deadline - time.perf_counter()
             if left <= 0:
                 return dict(self.peers)
-            try:
-                self.lc.handle_timeout(max(1, round(left * 1e3)))
-            except OSError:  # the wait interrupted by a signal (EINTR): the caller checks for a stop next
-                return dict(self.peers)
+            if dispatch(self.lc, max(1, round(left * 1e3))) == 0 and time.perf_counter() < deadline:
+                return dict(self.peers)  # a signal cut the wait: the caller checks for a stop next
 
     def drain(self) -> int:
         """Dispatch everything that waited in LCM's queues (see DRAIN_MAX_MESSAGES, DRAIN_BUDGET_S)."""
         deadline = time.perf_counter() + DRAIN_BUDGET_S
         n = 0
-        while n < DRAIN_MAX_MESSAGES and self.lc.handle_timeout(0) > 0:
+        while n < DRAIN_MAX_MESSAGES and dispatch(self.lc, 0) > 0:
             n += 1
             if time.perf_counter() >= deadline:
                 break
@@ -317,7 +316,7 @@ class LcmNodeIO(NodeIO):
         self.torso_waits += 1
         deadline = time.perf_counter() + timeout_s
         while True:
-            self.lc.handle_timeout(1)  # ms: one message, or a 1 ms wait
+            dispatch(self.lc, 1)  # ms: one message, or a 1 ms wait
             if _has_torso(inbox, seq):
                 return True
             if time.perf_counter() >= deadline:

@@ -79,3 +79,33 @@ def test_a_negative_or_nan_spin_is_refused(bad):
         LcmMotorBus(lc=lc, spin_s=bad)
     with pytest.raises(ValueError, match="spin_s"):
         LcmPort(lc=lc, spin_s=bad)
+
+
+class InterruptedLcm:
+    """A real in-process LCM whose every dispatch is cut by a signal (LCM returns -1: OSError)."""
+
+    def __init__(self) -> None:
+        self.real = lcm.LCM("memq://")
+        self.cuts = 0
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+    def handle_timeout(self, ms: int) -> int:
+        self.cuts += 1
+        raise OSError("lcm_handle_timeout() returned -1")
+
+
+def test_a_signal_during_any_dispatch_is_nothing_dispatched():
+    """SIGTERM during a zero-timeout poll in a receive ended a node as "internal error" (exit 1, seen in
+    tests/integration/test_node_signals.py); every dispatch now reads it as nothing dispatched."""
+    from spine_module.node.io import LcmNodeIO
+
+    lc = InterruptedLcm()
+    assert handle(lc, 0.005) == 0 and handle(lc, 0.005, spin_s=0.001) == 0
+    bus = LcmMotorBus(lc=lc)
+    assert bus.receive(0.0) is None and bus.receive(0.002) is None
+    io = LcmNodeIO(lc)
+    io.poll()
+    assert io.drain() == 0 and io.await_torso(10**6, 0.003) is False
+    assert lc.cuts >= 6
