@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from sparc_quad.bound.backend import load_compiled, resolve_backend
+from sparc_quad.gaits.authors_raibert import AuthorsRaibertController, AuthorsRaibertParams
 from sparc_quad.gaits.base import Gait
 from sparc_quad.gaits.bound import BoundController, BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundController, SineBoundParams
@@ -34,7 +35,7 @@ from spine_module import params as P
 @dataclass(frozen=True)
 class BoundConfig:
     duration_s: float = 10.0
-    gait: BoundParams | SineBoundParams = field(default_factory=BoundParams)
+    gait: BoundParams | SineBoundParams | AuthorsRaibertParams = field(default_factory=BoundParams)
     world: WorldConfig = field(default_factory=WorldConfig)
     spine: SpineGains = field(default_factory=SpineGains)
     spine_variant: str = "impedance"  # impedance | passive | rigid | rigid-impedance (spine_drive)
@@ -93,10 +94,14 @@ def variant_of(cfg: BoundConfig) -> str:
 _SPINE_BACKEND = {"numba": "numba", "python": "pinocchio"}
 
 
-def make_gait(world: QuadWorld, params: BoundParams | SineBoundParams, backend: str = "python") -> Gait:
-    """The leg controller; `backend` "numba": gait B's whole step compiled, gait A's joint PD at its calls."""
+def make_gait(world: QuadWorld, params: BoundParams | SineBoundParams | AuthorsRaibertParams,
+              backend: str = "python") -> Gait:
+    """The leg controller; `backend` "numba": gait B's whole step compiled, gait A's joint PD at its calls
+    (gait C has only its Python path)."""
     if isinstance(params, SineBoundParams):
         return SineBoundController(world, params, backend)
+    if isinstance(params, AuthorsRaibertParams):
+        return AuthorsRaibertController(world, params)
     if backend == "numba":
         from sparc_quad.gaits.bound_fast import CompiledBoundController
 
@@ -377,6 +382,8 @@ def run_bound(
 def startup_s(cfg: BoundConfig) -> float:
     """When the gait has reached its running state: start, ramps and (gait A) the spine switch."""
     gp = cfg.gait
+    if isinstance(gp, AuthorsRaibertParams):
+        return gp.running_from_s
     if isinstance(gp, SineBoundParams):
         t = gp.running_from_s
         if cfg.spine_schedule is not None:

@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 SPEED_SHORTFALL = 0.75  # mean speed below this fraction of the target: the gait did not reach it
 GROUPS = {  # scenario keys by option group, in the order --help lists them
     "the robot and its world": ("host", "host_file", "engine", "slope", "seed", "duration", "settle",
-                                "latency_steps"),
+                                "latency_steps", "joint_damping", "joint_friction", "leg_torque_limit"),
     "the gait": ("gait", "speed", "stride", "frequency", "step_height", "duty", "height", "body_kp",
                  "body_kd", "roll_kp", "roll_kd", "phase_offset", "raibert_gain", "variant", "step_length",
                  "hip_depth", "direction", "adapt_frequency"),

@@ -42,11 +42,12 @@ EXACT_IMU = ImuConfig(q1_noise_rad=0.0, dq1_noise_rad_s=0.0, ddq1_noise_rad_s2=0
 BASE_MOTION = "authors-cvel"
 
 
-def spine_params() -> P.SpineParams:
+def spine_params(end_effector_ahead_m: float = 0.0) -> P.SpineParams:
     """The spined dog's spine as the project's spine model sees it (planar chain about y: the y offsets of
     joints and centres of mass do not enter; the front body's 2.2 mm COM height and the first spine
     joint's 1 mm height are not representable and are left out; the latter shifts task z, see
-    `task_z_offset_m`)."""
+    `task_z_offset_m`). The task point is the front body's frame, or `end_effector_ahead_m` ahead of it
+    along its x (gait C's `spine_end_effector`, 0.107 m)."""
     from sparc_quad.sim import spined_dog as D
 
     def link(name: str, length_m: float) -> P.LinkParams:
@@ -55,7 +56,7 @@ def spine_params() -> P.SpineParams:
 
     hs, fs, fb = (D.BY_NAME[n] for n in ("hind_spine", "front_spine", "front_body"))
     links = (link("hind_body", hs.pos_m[0]), link("hind_spine", fs.pos_m[0]),
-             link("front_spine", fb.pos_m[0]), link("front_body", 0.0))
+             link("front_spine", fb.pos_m[0]), link("front_body", end_effector_ahead_m))
     lower = {"q1": -math.pi, **{q: -JOINT_RANGE_RAD for q in P.ACTUATED_JOINTS}}
     upper = {"q1": math.pi, **{q: JOINT_RANGE_RAD for q in P.ACTUATED_JOINTS}}
     return P.SpineParams(links=links, armature_kg_m2=0.0, torque_limit_nm=D.MOTOR_LIMIT_NM,
@@ -93,3 +94,24 @@ def node_config():
     lower = np.array([sp.lower_rad[q] for q in P.ACTUATED_JOINTS])
     upper = np.array([sp.upper_rad[q] for q in P.ACTUATED_JOINTS])
     return NodeConfig(safety=SafetyConfig(soft_start_s=0.0, lower=lower, upper=upper))
+
+
+# Gait C (their speed-commanded Raibert bound: main_robot_raibert.py and dog_controller_raibert.py at
+# 9aee563, spined_dog_spine_dyn.urdf at a7fca48): the spine law regulates `spine_end_effector`,
+# 0.107249862 m ahead of the front body's frame, to x_d (0.367 m, 0.02 m, -0.3 rad) with Kp (2400, 3000, 15)
+# and Kd (0, 30, 1) from its first call, at the legs' control clock (2 ms rule, ~408 Hz)
+RAIBERT_EE_AHEAD_M = 0.107249862
+RAIBERT_X_D = (0.367, 0.02, -0.3)
+RAIBERT_K = (2400.0, 3000.0, 15.0)
+RAIBERT_D = (0.0, 30.0, 1.0)
+RAIBERT_CONTROL_HZ = 500.0  # their nominal rate; the 2 ms rule on a float clock gives ~408 Hz
+RAIBERT_JOINT_DAMPING_NM_S_RAD = 0.1  # their model at 1c8013a: every joint
+RAIBERT_JOINT_FRICTION_NM = 0.1
+RAIBERT_LEG_LIMIT_NM = 120.0  # their model at 1c8013a: every motor's ctrlrange (the spine law clamps at 12)
+
+
+def raibert_target(d: tuple[float, float, float]) -> SpineSchedule:
+    """Gait C's constant target in the model's frame, with the run's damping `d` from the first call."""
+    x, z, theta = RAIBERT_X_D
+    return SpineSchedule(switch_s=0.0, k0=None, d0=tuple(d), x_d0_m=x, x_d1_m=x,
+                         z_d_m=z - task_z_offset_m(), theta_d_rad=theta)

@@ -56,7 +56,7 @@ class NodeSpine:
             command = self._command(gains.k, gains.d, P.X_EQUILIBRIUM)
         else:
             command = self._command(gains.k if schedule.k0 is None else schedule.k0, schedule.d0,
-                                    (schedule.x_d0_m, schedule.z_d_m, 0.0))
+                                    (schedule.x_d0_m, schedule.z_d_m, schedule.theta_d_rad))
         self._torso_accel = torso_accel
         cosim = (lambda k, t: node.tick(t, node.receive(0.0))) if node is not None else None
         self.robot = RobotSide(self.plant, port, command,
@@ -101,7 +101,8 @@ class NodeSpine:
         computes the answer."""
         if not self._switched and t_sim >= self.schedule.switch_s:
             sch = self.schedule
-            self.robot.command = self._command(self.gains.k, self.gains.d, (sch.x_d1_m, sch.z_d_m, 0.0))
+            self.robot.command = self._command(self.gains.k, self.gains.d,
+                                               (sch.x_d1_m, sch.z_d_m, sch.theta_d_rad))
             self._switched = True
         if not self._torso_accel:
             est = EstimatorOutput(est.q1, est.dq1, 0.0, est.base_accel)

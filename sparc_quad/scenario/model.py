@@ -23,7 +23,7 @@ from sparc_quad.sim.quadruped_world import BASE_MOTIONS
 from sparc_quad.sim.spine_drive import SPINE_VARIANTS
 from spine_module.messages import codec
 
-GAITS = ("raibert", "sine")
+GAITS = ("raibert", "sine", "authors-raibert")
 SINE_VARIANTS = ("authors", "literal")
 SPINE_PATHS = ("direct", "node")
 DURATION_MAX_S = SIM_DURATION_MAX_S
@@ -105,7 +105,8 @@ def _key(default: Any, kind: type, help: str, unit: str = "", **rest: Any) -> An
     return field(default=default, metadata={"key": dict(kind=kind, unit=unit, help=help, **rest)})
 
 
-_RAIBERT, _SINE = ("raibert",), ("sine",)
+_RAIBERT, _SINE, _GAIT_C = ("raibert",), ("sine",), ("authors-raibert",)
+_SPEED = (*_RAIBERT, *_GAIT_C)  # speed-commanded gaits
 _RENDERED = ("impedance", "passive")  # spines whose k, d the scenario sets
 _MOTOR = ("impedance", "rigid-impedance")  # spines a motor renders (controller options act)
 K_MAX, D_MAX = codec.K_MAX, codec.D_MAX  # what the spine node's command accepts
@@ -137,17 +138,29 @@ class Scenario:
                          lo=0.0, hi=DURATION_MAX_S)
     latency_steps: int = _key(0, int, "every joint torque is applied this many 1 ms physics steps late",
                               "steps", lo=0, hi=1000)
+    joint_damping: float | None = _key(None, float, "viscous damping of every joint (default: 0; 0.1 in "
+                                       "authors-raibert on spined-dog, the authors' later dog model)",
+                                       "N*m*s/rad", lo=0.0, hi=100.0, nullable=True)
+    joint_friction: float | None = _key(None, float, "dry friction of every joint (default: 0; 0.1 in "
+                                        "authors-raibert on spined-dog)", "N*m", lo=0.0, hi=100.0,
+                                        nullable=True)
+    leg_torque_limit: float | None = _key(None, float, "torque limit of every leg motor (default: 120, the "
+                                          "authors' later dog model; gaits A and B use the host's)", "N*m",
+                                          lo=0.0, hi=1000.0, lo_open=True, gaits=_GAIT_C, nullable=True)
     # the gait
-    gait: str = _key("raibert", str, "raibert: the project's speed-commanded Raibert bound; sine: the SPARC "
-                     "authors' open-loop sine bound (gait A)", choices=GAITS)
-    speed: float | None = _key(None, float, "target forward speed (default: 0.6)", "m/s", lo=0.0, hi=10.0,
-                               gaits=_RAIBERT, nullable=True)
+    gait: str = _key("raibert", str, "raibert: the project's speed-commanded Raibert bound (gait B); sine: "
+                     "the SPARC authors' open-loop sine bound (gait A); authors-raibert: the authors' own "
+                     "speed-commanded Raibert bound for their spined dog (gait C)", choices=GAITS)
+    speed: float | None = _key(None, float, "target forward speed (default: 0.6 raibert, 1.3 "
+                               "authors-raibert)", "m/s", lo=0.0, hi=10.0, gaits=_SPEED, nullable=True)
     stride: float | None = _key(None, float, "stride length; sets the target speed to stride x frequency "
                                 "(instead of speed)", "m", lo=0.0, hi=2.0, lo_open=True, gaits=_RAIBERT,
                                 nullable=True)
-    frequency: float | None = _key(None, float, "stride frequency (default: 4.0 raibert, 3.1 sine)", "Hz",
+    frequency: float | None = _key(None, float, "stride frequency (default: 4.0 raibert, 3.1 sine and "
+                                   "authors-raibert)", "Hz",
                                    lo=0.0, hi=10.0, lo_open=True, nullable=True)
-    step_height: float | None = _key(None, float, "swing foot clearance (default: 0.07 raibert, 0.06 sine)",
+    step_height: float | None = _key(None, float, "swing foot clearance (default: 0.07 raibert, 0.06 sine, "
+                                     "0.08 authors-raibert)",
                                      "m", lo=0.0, hi=0.2, nullable=True)
     duty: float | None = _key(None, float, "stance fraction of each leg pair (default: 0.5 at <= 0.3 m/s to "
                               "0.45 at >= 0.6 m/s)", lo=0.0, hi=1.0, lo_open=True, hi_open=True,
@@ -279,6 +292,9 @@ def check_applicable(s: Scenario) -> None:
             raise ScenarioError("host_file", f"names the host itself: leave host out (got host {s.host!r})")
         if not s.host_file.endswith(".toml"):
             raise ScenarioError("host_file", f"expected a host.toml path, got {s.host_file!r}")
+    if s.gait == "authors-raibert" and (s.host != "spined-dog" or s.host_file is not None):
+        raise ScenarioError("gait", "authors-raibert is the SPARC authors' controller for their spined dog "
+                                    "(its legs, frames and gains): use host spined-dog")
     if s.speed is not None and s.stride is not None:
         raise ScenarioError("stride", "sets the target speed (stride x frequency): give speed or stride, "
                                       "not both")

@@ -15,6 +15,7 @@ from typing import Any
 
 from sparc_quad.bound.run import BoundConfig
 from sparc_quad.gaits import authors_run as A
+from sparc_quad.gaits.authors_raibert import LOCKED_SPINE_Q_RAD, AuthorsRaibertParams
 from sparc_quad.gaits.bound import BoundParams
 from sparc_quad.gaits.sine_bound import SineBoundParams
 from sparc_quad.scenario.checks import check_runnable
@@ -27,12 +28,14 @@ from sparc_quad.sim.seed_variation import perturbation
 from sparc_quad.sim.spine_drive import SpineGains, SpineSchedule
 from spine_module import params as P
 
-_RAIBERT, _SINE = BoundParams(), SineBoundParams()
+_RAIBERT, _SINE, _GAIT_C = BoundParams(), SineBoundParams(), AuthorsRaibertParams()
 
 
 def authors_run(s: Scenario) -> bool:
-    """Gait A on the authors' own robot: their whole run (start, clock, schedule, model, estimator)."""
-    return s.gait == "sine" and s.host == spined_dog.HOST and s.host_file is None
+    """Gait A or C on the authors' own robot: their whole run (start, clock, spine target or schedule, spine
+    model, estimator)."""
+    on_dog = s.host == spined_dog.HOST and s.host_file is None
+    return on_dog and s.gait in ("sine", "authors-raibert")
 
 
 def world_host(s: Scenario) -> str:
@@ -59,7 +62,15 @@ def host_defaults(s: Scenario) -> dict[str, Any]:
 def defaults(s: Scenario) -> dict[str, Any]:
     """The default of every nullable key in `s`'s robot, gait and spine (keys that act only there)."""
     authors = authors_run(s)
-    if s.gait == "raibert":
+    joints = dict(joint_damping=0.0, joint_friction=0.0)
+    if s.gait == "authors-raibert":  # their later model and their script's spine
+        k, d = A.RAIBERT_K, A.RAIBERT_D
+        gait = dict(speed=_GAIT_C.speed_m_s, frequency=_GAIT_C.frequency_hz,
+                    step_height=_GAIT_C.step_height_m)
+        joints = dict(joint_damping=A.RAIBERT_JOINT_DAMPING_NM_S_RAD,
+                      joint_friction=A.RAIBERT_JOINT_FRICTION_NM, leg_torque_limit=A.RAIBERT_LEG_LIMIT_NM)
+        spine_rate = A.RAIBERT_CONTROL_HZ
+    elif s.gait == "raibert":
         k, d = tuple(P.K_DEFAULT), tuple(P.D_DEFAULT)
         gait = dict(speed=_RAIBERT.speed_m_s if s.stride is None else None, frequency=_RAIBERT.frequency_hz,
                     step_height=_RAIBERT.step_height_m, body_kp=_RAIBERT.body_kp, body_kd=_RAIBERT.body_kd,
@@ -76,7 +87,8 @@ def defaults(s: Scenario) -> dict[str, Any]:
                     direction=1.0 if variant == "literal" else None, schedule=True)
         spine_rate = A.AUTHORS_CONTROL_HZ if authors else P.AUTHORS_SPINE_RATE_HZ
     imu = A.EXACT_IMU if authors else ImuConfig()
-    out = dict(gait, kx=k[0], kz=k[1], kth=k[2], dx=d[0], dz=d[1], dth=d[2], spine_rate_hz=spine_rate,
+    out = dict(gait, **joints, kx=k[0], kz=k[1], kth=k[2], dx=d[0], dz=d[1], dth=d[2],
+               spine_rate_hz=spine_rate,
                imu_noise=imu.q1_noise_rad, imu_delay=imu.delay_steps,
                base_motion=A.BASE_MOTION if authors else "fixed")
     out.update(host_defaults(s))  # the host's own, over the gait's
@@ -131,6 +143,20 @@ def _bound_config(r: Scenario) -> BoundConfig:
         settle_s=r.settle, spine_rate_hz=r.spine_rate_hz)
     if r.host == spined_dog.HOST and r.host_file is None:  # the dog's own spine, in every gait
         common["spine_params"] = A.spine_params()
+    world = replace(world, joint_damping_nm_s_rad=r.joint_damping, joint_friction_nm=r.joint_friction,
+                    leg_torque_limit_nm=r.leg_torque_limit)
+    common["world"] = world
+    if r.gait == "authors-raibert":  # their start, their spine target and model, their locked model as rigid
+        locked = r.spine == "rigid"
+        params = replace(_GAIT_C, speed_m_s=r.speed, frequency_hz=r.frequency, step_height_m=r.step_height,
+                         start_phase_rad=2 * math.pi * pert.start_phase_cycles,
+                         start_spine_q_rad=LOCKED_SPINE_Q_RAD if locked else _GAIT_C.start_spine_q_rad)
+        params.validate()
+        common.update(spine_params=A.spine_params(A.RAIBERT_EE_AHEAD_M), spine_torso_accel=False)
+        target = A.raibert_target(spine.d) if r.spine != "rigid" else None
+        return BoundConfig(gait=params, spine_schedule=target,
+                           spine_timing="authors",
+                           **{**common, "world": replace(world, lock_spine_q_rad=LOCKED_SPINE_Q_RAD)})
     if r.gait == "raibert":
         params = replace(_RAIBERT, frequency_hz=r.frequency, step_height_m=r.step_height, duty=r.duty,
                          body_kp=r.body_kp, body_kd=r.body_kd, phase_offset=r.phase_offset,
@@ -148,10 +174,10 @@ def _bound_config(r: Scenario) -> BoundConfig:
     world = replace(world, stand_height_m=r.hip_depth)
     if authors:  # their start pose and height, their schedule's frame, the dog's spine model
         sine.update(start_spine_q_rad=A.START_SPINE_Q_RAD, start_base_height_m=spined_dog.BASE_HEIGHT_M)
-        schedule = A.schedule() if r.schedule else None
+        schedule = A.schedule() if r.schedule or r.spine == "rigid-impedance" else None
         common.update(spine_params=A.spine_params(), spine_torso_accel=False)
     else:
-        schedule = SpineSchedule() if r.schedule else None
+        schedule = SpineSchedule() if r.schedule or r.spine == "rigid-impedance" else None
     params = SineBoundParams(**sine)
     params.validate()
     return BoundConfig(gait=params, spine_schedule=schedule,

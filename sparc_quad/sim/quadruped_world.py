@@ -46,6 +46,12 @@ class WorldConfig:
     init_pitch_rad: float = 0.0  # initial body pitch added to the ground's (positive nose down)
     init_vx_m_s: float = 0.0  # initial forward velocity of the whole robot
     lock_spine: bool = False  # rigid spine: q2..q4 locked at the equilibrium arch by fixed constraints
+    lock_spine_q_rad: tuple[float, float, float] | None = None  # where it is locked (None: the arch)
+    # every hinge's viscous damping and dry friction (MuJoCo: dof damping, frictionloss; pybullet: joint
+    # damping, a velocity motor of that force limit): the authors' later dog model has 0.1 and 0.1
+    joint_damping_nm_s_rad: float = 0.0
+    joint_friction_nm: float = 0.0
+    leg_torque_limit_nm: float | None = None  # the leg motors' limit (None: the host's; 120 in that model)
     gravity_m_s2: float = P.GRAVITY_M_S2
     # what the torso estimate says of the base's linear motion (BASE_MOTIONS): "fixed", none (the spine
     # law's base joint has a fixed origin, the paper's law); "constant-twist", the base joint origin's
@@ -268,6 +274,12 @@ class QuadWorld(ABC):
         self._reorder = operator.itemgetter(*self._tau_order)
         self._tau = [0.0] * len(self.movable)
 
+    @property
+    def leg_torque_limit_nm(self) -> float:
+        """The leg motors' torque limit, N*m: the world's override or the host's."""
+        lim = self.cfg.leg_torque_limit_nm
+        return float(self.meta["leg_torque_limit_nm"] if lim is None else lim)
+
     # ---- set-up ---------------------------------------------------------------------------------------
     def leg_ik(self, key: str, x: float, z: float) -> tuple[float, float]:
         """Planar IK: HFE, KFE putting the foot centre at (x, z) from the hip in the body frame."""
@@ -371,6 +383,14 @@ class QuadWorld(ABC):
         centre of mass moving rigidly with the hind body and the hind body's angular velocity, both in
         world axes (vx, vy, vz m/s, wx, wy, wz rad/s); `cvel_lag_steps` old."""
         raise NotImplementedError(f"the {self.engine} world has no authors' twist")
+
+    def authors_body_states(self) -> tuple:
+        """What the SPARC authors' Raibert bound (gait C) reads of the trunk, as MuJoCo's `xpos`, `xmat` and
+        `cvel` hold it (`cvel_lag_steps` old): (hind-body origin (3,) m, its rotation (9, row-major), the
+        `cvel` linear part of the hind body (3,) m/s and its angular velocity (3,) rad/s, the front body's
+        rotation (9,), the front body's `cvel` linear part (3,) m/s); world axes. A body's `cvel` linear part
+        is the velocity of the point at the whole robot's centre of mass moving rigidly with that body."""
+        raise NotImplementedError(f"the {self.engine} world has no authors' body states")
 
     # ---- actuation -----------------------------------------------------------------------------------
     def set_torques(self, spine_tau, leg_tau: dict[str, tuple[float, float, float]]) -> None:

@@ -18,7 +18,7 @@ the optional clocked members. `ScheduledDrive` adds the authors' gain switch and
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -179,7 +179,9 @@ class ImpedanceSpine(SpineDrive):
 class SpineSchedule:
     """The authors' spine schedule: stiffness `k0` (None: the run's k, as their code keeps Kp through the
     switch), damping `d0` at target x `x_d0_m` until `switch_s`, then the run's gains at `x_d1_m`; the
-    target z is `z_d_m` throughout (0 in the authors' frame; a model whose frame sits elsewhere shifts it)."""
+    target z is `z_d_m` and the target pitch `theta_d_rad` throughout (0 in the authors' frame in gait A; a
+    model whose frame sits elsewhere shifts z). With `switch_s` 0 and equal gains and targets it is a
+    constant target (gait C's)."""
 
     switch_s: float = P.AUTHORS_SPINE_SWITCH_S
     k0: tuple[float, float, float] | None = None
@@ -187,6 +189,7 @@ class SpineSchedule:
     x_d0_m: float = P.AUTHORS_X_D_START_M
     x_d1_m: float = P.AUTHORS_X_D_RUN_M
     z_d_m: float = 0.0
+    theta_d_rad: float = 0.0
 
 
 class ScheduledDrive(SpineDrive):
@@ -209,7 +212,8 @@ class ScheduledDrive(SpineDrive):
         self._switched = schedule is None
         if schedule is not None:
             k0 = gains.k if schedule.k0 is None else schedule.k0
-            drive.set_gains(k=k0, d=schedule.d0, x_d=(schedule.x_d0_m, schedule.z_d_m, 0.0))
+            drive.set_gains(k=k0, d=schedule.d0,
+                            x_d=(schedule.x_d0_m, schedule.z_d_m, schedule.theta_d_rad))
 
     @property
     def x(self):
@@ -240,7 +244,8 @@ class ScheduledDrive(SpineDrive):
             t = self._k * self.dt
         if not self._switched and t >= self.schedule.switch_s and (run or clock is None):
             self.drive.set_gains(k=self.gains.k, d=self.gains.d,
-                                 x_d=(self.schedule.x_d1_m, self.schedule.z_d_m, 0.0))
+                                 x_d=(self.schedule.x_d1_m, self.schedule.z_d_m,
+                                      self.schedule.theta_d_rad))
             self._switched = True
         self._k += 1
         return run
@@ -275,12 +280,15 @@ def make_spine_drive(gains: SpineGains, rigid: bool = False, friction: bool = Fa
     if variant == "rigid":
         return LockedSpine()
     if variant == "rigid-impedance":
-        stiff = SpineGains(k=tuple(P.K_RIGID_IMPEDANCE), d=tuple(P.D_RIGID_IMPEDANCE))
-        drive = ImpedanceSpine(stiff, friction=friction, backend=backend, spine=spine)
+        # the same controller, rate, clock and targets as the run's impedance spine, at K = 1e4 N/m
+        gains = SpineGains(k=tuple(P.K_RIGID_IMPEDANCE), d=tuple(P.D_RIGID_IMPEDANCE))
+        if schedule is not None:
+            schedule = replace(schedule, k0=None, d0=gains.d)
+        drive = ImpedanceSpine(gains, friction=friction, backend=backend, spine=spine)
         drive.name = "rigid-impedance"
-        return drive
-    drive = PassiveSpine(gains) if variant == "passive" else ImpedanceSpine(gains, friction=friction,
-                                                                            backend=backend, spine=spine)
+    else:
+        drive = PassiveSpine(gains) if variant == "passive" else ImpedanceSpine(gains, friction=friction,
+                                                                                backend=backend, spine=spine)
     motor = bool(rate_hz) and variant != "passive"
     hold = max(1, round(1.0 / (rate_hz * dt_s))) if motor else 1
     clock = ControlClock(1.0 / rate_hz, dt_s) if motor and timing == "authors" else None

@@ -119,7 +119,7 @@ class MujocoWorld(QuadWorld):
         floor.quat = _quat_wxyz(quat_about_y(-cfg.slope_rad))
         floor.friction = [cfg.friction, *spined_dog.PHYSICS.floor_friction[1:]]
         if cfg.lock_spine:
-            q_eq = meta["q_equilibrium"][1:]
+            q_eq = meta["q_equilibrium"][1:] if cfg.lock_spine_q_rad is None else cfg.lock_spine_q_rad
             for name, q in zip(meta["spine_joints"], q_eq, strict=True):
                 data = np.zeros(mujoco.mjNEQDATA)
                 data[0] = q
@@ -135,6 +135,18 @@ class MujocoWorld(QuadWorld):
         if cfg.mass_scale != 1.0:
             m.body_mass[1:] *= cfg.mass_scale
             m.body_inertia[1:] *= cfg.mass_scale
+        hinge = mujoco.mjtJoint.mjJNT_HINGE
+        hinge_dofs = [int(m.jnt_dofadr[j]) for j in range(m.njnt) if m.jnt_type[j] == hinge]
+        m.dof_damping[hinge_dofs] = cfg.joint_damping_nm_s_rad
+        m.dof_frictionloss[hinge_dofs] = cfg.joint_friction_nm
+        if cfg.leg_torque_limit_nm is not None:  # every motor but the spine's
+            spine_j = {m.joint(n).id for n in meta["spine_joints"]}
+            for a in range(m.nu):
+                j = int(m.actuator_trnid[a, 0])
+                if j not in spine_j:
+                    lim = cfg.leg_torque_limit_nm
+                    m.actuator_ctrlrange[a] = (-lim, lim)
+                    m.jnt_actfrcrange[j] = (-lim, lim)
         self.data = mujoco.MjData(m)
         self.total_mass = float(m.body_mass[1:].sum())
         hinges = {m.joint(i).name: i for i in range(m.njnt) if m.jnt_type[i] == mujoco.mjtJoint.mjJNT_HINGE}
@@ -175,6 +187,9 @@ class MujocoWorld(QuadWorld):
         # valid for the life of `self.data`
         self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self._cvel_base = self.data.cvel[base]  # the hind body's (rot; lin) at the robot's COM, world axes
+        front = int(m.jnt_bodyid[self.joint_index[meta["spine_joints"][-1]]])  # the last spine joint's body
+        d = self.data
+        self._authors_views = (d.xpos[base], d.xmat[base], d.cvel[base], d.xmat[front], d.cvel[front])
         self._chunk_cvel = self.estimator.uses_authors_twist  # step_chunk keeps each step's cvel
         self._ctrl_all = isinstance(self._ctrl_idx, slice) and self._ctrl.flags.c_contiguous
         self._pack_ctrl = struct.Struct(f"{m.nu}d").pack_into
@@ -266,6 +281,13 @@ class MujocoWorld(QuadWorld):
         (the first state's after `reset_stand`'s mj_forward), reordered (lin; rot)."""
         wx, wy, wz, vx, vy, vz = self._cvel_base.tolist()
         return (vx, vy, vz, wx, wy, wz)
+
+    def authors_body_states(self) -> tuple:
+        """`QuadWorld.authors_body_states` from MjData, as the authors' loop reads it after mj_step."""
+        pos, rot, cvel, front_rot, front_cvel = self._authors_views
+        c, fc = cvel.tolist(), front_cvel.tolist()
+        return (tuple(pos.tolist()), tuple(rot.tolist()), tuple(c[3:]), tuple(c[:3]),
+                tuple(front_rot.tolist()), tuple(fc[3:]))
 
     def _read_contacts(self) -> None:
         """contact_force, other_contact, body_contact from the contacts the last step solved."""

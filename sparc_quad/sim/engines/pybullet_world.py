@@ -64,11 +64,15 @@ class PybulletWorld(QuadWorld):
         self.engine_joints = [j for j in self.movable if j != ABSENT]  # the joints pybullet drives
         self._pad = (0.0,) * (len(self.movable) - len(self.engine_joints))  # an absent joint reads 0
         # Default velocity motors off: every joint is torque controlled.
+        # Joint dry friction (`joint_friction_nm`): the velocity motors kept at target 0 with that force
+        # limit, which the solver applies as a friction constraint beside the torques.
         pb.setJointMotorControlArray(self.robot, self.engine_joints, pb.VELOCITY_CONTROL,
-                                     forces=[0.0] * len(self.engine_joints), physicsClientId=c)
+                                     forces=[cfg.joint_friction_nm] * len(self.engine_joints),
+                                     physicsClientId=c)
         for link in range(-1, pb.getNumJoints(self.robot, physicsClientId=c)):
             pb.changeDynamics(
-                self.robot, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0, physicsClientId=c
+                self.robot, link, linearDamping=0.0, angularDamping=0.0,
+                jointDamping=cfg.joint_damping_nm_s_rad if link >= 0 else 0.0, physicsClientId=c
             )
             if cfg.mass_scale != 1.0:
                 info = pb.getDynamicsInfo(self.robot, link, physicsClientId=c)
@@ -105,9 +109,12 @@ class PybulletWorld(QuadWorld):
         self.spine_locks = self._lock_spine() if cfg.lock_spine else []
 
     def _lock_spine(self) -> list[int]:
-        """Fixed constraints between consecutive spine links at their present relative poses: q2..q4 locked
-        (a rigid spine, not a stiff controller). Returns the constraint ids."""
+        """Fixed constraints between consecutive spine links at their present relative poses (or at
+        `lock_spine_q_rad`): q2..q4 locked (a rigid spine, not a stiff controller). Returns the ids."""
         c = self.client
+        if self.cfg.lock_spine_q_rad is not None:
+            for j, q in zip(self.spine_idx, self.cfg.lock_spine_q_rad, strict=True):
+                pb.resetJointState(self.robot, j, q, 0.0, physicsClientId=c)
 
         def com_pose(link: int):
             if link == -1:
@@ -233,6 +240,32 @@ class PybulletWorld(QuadWorld):
         vx, vy, vz = self.base_vel
         wx, wy, wz = self.base_omega
         return (vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx, wx, wy, wz)
+
+    def authors_body_states(self) -> tuple:
+        """`QuadWorld.authors_body_states` of the present state (no lag: pybullet has no cvel), as MuJoCo
+        defines its `cvel` linear part: v_com(link) + w x (com(robot) - com(link))."""
+        c, robot = self.client, self.robot
+        mass = self._link_mass
+        bx, by, bz = pb.getBasePositionAndOrientation(robot, physicsClientId=c)[0]
+        cx, cy, cz = mass[0] * bx, mass[0] * by, mass[0] * bz
+        states = pb.getLinkStates(robot, self._links, computeLinkVelocity=1, computeForwardKinematics=1,
+                                  physicsClientId=c)
+        for k, st in enumerate(states, start=1):
+            px, py, pz = st[0]
+            cx, cy, cz = cx + mass[k] * px, cy + mass[k] * py, cz + mass[k] * pz
+        total = self.total_mass
+        com = (cx / total, cy / total, cz / total)
+
+        def at_com(p, v, w):
+            rx, ry, rz = com[0] - p[0], com[1] - p[1], com[2] - p[2]
+            return (v[0] + w[1] * rz - w[2] * ry, v[1] + w[2] * rx - w[0] * rz, v[2] + w[0] * ry - w[1] * rx)
+
+        base_com = (bx, by, bz)
+        lin, ang = pb.getBaseVelocity(robot, physicsClientId=c)
+        front = states[self.spine_idx[-1]]
+        front_rot = tuple(pb.getMatrixFromQuaternion(front[5]))
+        return (tuple(self.base_pos), tuple(self.base_rot), at_com(base_com, lin, ang), tuple(ang), front_rot,
+                at_com(front[0], front[6], front[7]))
 
     def step(self) -> None:
         tau = self._tau if not self._pad else self._tau[:self.n_engine_joints]

@@ -6,13 +6,21 @@ from __future__ import annotations
 
 import json
 import tomllib
-from dataclasses import replace
 
 import pytest
 
 from sparc_quad.cli import build_parser, main
 from sparc_quad.cli.bound import GROUPS, option, scenario_from_args
-from sparc_quad.scenario import KEYS, Scenario, ScenarioError, bound_config, load_scenario, resolved, to_toml
+from sparc_quad.scenario import (
+    GAITS,
+    KEYS,
+    Scenario,
+    ScenarioError,
+    bound_config,
+    load_scenario,
+    resolved,
+    to_toml,
+)
 from sparc_quad.study.spec import SpecError, parse_spec
 from sparc_quad.study.trial import config_of, trial_scenario
 from tests.paths import ROOT
@@ -24,10 +32,15 @@ EXECUTION = {"help", "scenario", "out", "video", "no_plots", "backend", "realtim
 SPINES = KEYS["spine"].choices
 
 
+def on_its_robot(gait: str) -> dict:
+    """The keys a gait needs beside it: gait C runs only on the authors' dog."""
+    return {"gait": gait, "host": "spined-dog"} if gait == "authors-raibert" else {"gait": gait}
+
+
 def where_it_acts(name: str) -> dict:
     """A scenario in which key `name` acts."""
     key = KEYS[name]
-    return {"gait": key.gaits[0], "spine": key.spines[0]}
+    return {**on_its_robot(key.gaits[0]), "spine": key.spines[0]}
 
 
 def another_value(name: str, base: Scenario):
@@ -99,15 +112,15 @@ def test_spine_path_changes_the_spine():
     node.close()
 
 
-@pytest.mark.parametrize("name", [n for n in KEYS if KEYS[n].gaits != ("raibert", "sine")
+@pytest.mark.parametrize("name", [n for n in KEYS if KEYS[n].gaits != GAITS
                                   or set(KEYS[n].spines) != set(SPINES)])
 def test_an_option_that_cannot_act_is_refused_naming_it(name, capsys):
     key = KEYS[name]
-    gait = next((g for g in ("raibert", "sine") if g not in key.gaits), key.gaits[0])
+    gait = next((g for g in GAITS if g not in key.gaits), key.gaits[0])
     spine = next((s for s in SPINES if s not in key.spines), key.spines[0])
-    base = Scenario(gait=gait, spine=spine)
-    value = another_value(name, replace(base, gait=key.gaits[0], spine=key.spines[0]))
-    argv = ["bound", "--gait", gait, "--spine", spine, cli_flag(name, value), *cli_text(value),
+    value = another_value(name, Scenario(**on_its_robot(key.gaits[0]), spine=key.spines[0]))
+    robot = [a for k, v in on_its_robot(gait).items() if k != "gait" for a in (option(k), v)]
+    argv = ["bound", "--gait", gait, *robot, "--spine", spine, cli_flag(name, value), *cli_text(value),
             "--out", "/nonexistent-never-written"]
     assert main(argv) == 2
     err = capsys.readouterr().err
@@ -141,11 +154,11 @@ def test_every_study_key_reaches_the_trial_or_is_refused(name):
     (trial,) = spec.trials()
     assert getattr(trial_scenario(trial), name) == value
     key = KEYS[name]
-    gait = next((g for g in ("raibert", "sine") if g not in key.gaits), None)
+    gait = next((g for g in GAITS if g not in key.gaits), None)
     spine = next((s for s in SPINES if s not in key.spines), None)
     if gait is not None:  # another gait: refused, naming the key
         with pytest.raises(SpecError, match=name):
-            parse_spec({"scenario": {**base, "gait": gait}, "grid": {name: [value]}})
+            parse_spec({"scenario": {**base, **on_its_robot(gait)}, "grid": {name: [value]}})
     if spine is not None:  # a spine it cannot act on in any cell: refused, naming the key
         with pytest.raises(SpecError, match=name):
             parse_spec({"scenario": {**base, "spine": spine}, "grid": {name: [value]}})

@@ -1,0 +1,79 @@
+"""Gait C (the SPARC authors' speed-commanded Raibert bound) on their dog, through the one scenario: what it
+resolves to, that it bounds forward in both engines, its rigid baseline is their locked model, and its held
+steps are the full path's bit for bit."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sparc_quad import Scenario, bound_config
+from sparc_quad.bound.run import run_bound
+from sparc_quad.gaits import authors_run as A
+from sparc_quad.gaits.authors_raibert import LOCKED_SPINE_Q_RAD, AuthorsRaibertParams
+from sparc_quad.scenario import ScenarioError, resolved
+
+pytest.importorskip("mujoco")
+
+
+def _run(s: Scenario, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return run_bound(bound_config(s), **kw)
+
+
+def test_resolves_to_their_run():
+    r = resolved(Scenario(host="spined-dog", gait="authors-raibert"))
+    assert (r.speed, r.frequency, r.step_height) == (1.3, 3.1, 0.08)
+    assert (r.kx, r.kz, r.kth, r.dx, r.dz, r.dth) == (*A.RAIBERT_K, *A.RAIBERT_D)
+    assert (r.joint_damping, r.joint_friction, r.spine_rate_hz) == (0.1, 0.1, 500.0)
+    assert (r.base_motion, r.imu_noise, r.imu_delay) == ("authors-cvel", 0.0, 1)
+    cfg = bound_config(Scenario(host="spined-dog", gait="authors-raibert", speed=0.9))
+    assert isinstance(cfg.gait, AuthorsRaibertParams) and cfg.gait.speed_m_s == 0.9
+    assert cfg.spine_schedule.x_d1_m == 0.367 and cfg.spine_schedule.theta_d_rad == -0.3
+    assert cfg.world.joint_damping_nm_s_rad == 0.1 and cfg.world.joint_friction_nm == 0.1
+    # the same keys elsewhere keep the frictionless model
+    assert resolved(Scenario(host="spined-dog", gait="sine")).joint_damping == 0.0
+
+
+@pytest.mark.parametrize("bad, key", [({"host": "solo12"}, "gait"), ({"step_length": 0.08}, "step_length"),
+                                      ({"duty": 0.5}, "duty"), ({"spine": "rigid", "kx": 800.0}, "kx")])
+def test_refuses_what_cannot_act(bad, key):
+    with pytest.raises(ScenarioError) as err:
+        Scenario(**{"host": "spined-dog", "gait": "authors-raibert", **bad})
+    assert err.value.key == key
+
+
+@pytest.mark.parametrize("engine, speed", [("mujoco", 0.9), ("pybullet", 0.5)])
+def test_bounds_forward_at_the_command(engine, speed):
+    """4 s at the command: no fall, forward over the window. (In pybullet their controller reverses after
+    about 4 s at 0.9 and 1.3 m/s with the joints' dry friction; MuJoCo tracks: docs/gait-c.md.)"""
+    if engine == "pybullet":
+        pytest.importorskip("pybullet")
+    s = Scenario(host="spined-dog", gait="authors-raibert", engine=engine, speed=speed, duration=4.0)
+    m = _run(s).metrics
+    assert not m["fell"]
+    assert 0.6 * speed < m["speed_m_s"] < 1.3 * speed
+    assert m["target_speed_m_s"] == speed
+
+
+def test_rigid_is_their_locked_model():
+    """spine rigid: the three spine joints held at their locked model's (-0.85, 1.5, -0.85) throughout."""
+    res = _run(Scenario(host="spined-dog", gait="authors-raibert", engine="mujoco", spine="rigid", speed=0.9,
+                        duration=2.0))
+    q = np.column_stack([res.column(c) for c in ("q2", "q3", "q4")])
+    assert np.abs(q - np.array(LOCKED_SPINE_Q_RAD)).max() < 0.02
+    assert not res.metrics["spine_actuated"]
+
+
+def test_held_steps_bit_identical():
+    cfg = bound_config(Scenario(host="spined-dog", gait="authors-raibert", engine="mujoco", speed=0.9,
+                                duration=2.0, seed=2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        held, full = run_bound(cfg, held_steps=True), run_bound(cfg, held_steps=False)
+    assert held.metrics["held_steps"] > 0.3 * len(held.series)  # a call every 2 or 3 steps
+    assert full.metrics["held_steps"] == 0
+    assert held.series.tobytes() == full.series.tobytes()
