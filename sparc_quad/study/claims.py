@@ -23,7 +23,7 @@ from collections import defaultdict
 import numpy as np
 
 from sparc_quad.metrics import ELEC_SENSITIVITY
-from sparc_quad.study.best_cell import BASELINE_OF, BASELINES, best_of
+from sparc_quad.study.best_cell import BASELINE_OF, BASELINES, SELECTION_SPLIT, best_of, held_out, stands
 from sparc_quad.study.stats import CONFIDENCE, paired_difference
 
 HEADLINE = "cot_pos_total"
@@ -122,7 +122,8 @@ def _ref_panel(panels: list[dict]) -> dict | None:
 
 def _judged(cs: list, left: dict) -> int:
     """How many cells the best-cell rule ranked (on speed, not falling more than the safest)."""
-    return sum(c.est is not None for c in cs) - len(left["off_speed"]) - len(left.get("fall_more", []))
+    return (sum(c.est is not None for c in cs) - len(left["off_speed"]) - len(left.get("fall_more", []))
+            - len(left.get("falls", [])))
 
 
 def _why_untested(cs: list, left: dict) -> str:
@@ -132,7 +133,8 @@ def _why_untested(cs: list, left: dict) -> str:
     txt = f"{speeds[0]:.2f}-{speeds[-1]:.2f} m/s" if speeds else ""
     return (
         f"{_judged(cs, left)} of {len(cs)} cells on speed and standing (need {MIN_JUDGED_CELLS}): {nf}/{n} "
-        f"trials fell, {len(off)} cells off speed {txt}"
+        f"trials fell, {len(left.get('falls', []))} cells not tested (falls: fewer than 8 of 10 seeds "
+        f"standing), {len(off)} cells off speed {txt}"
     ).rstrip()
 
 
@@ -157,8 +159,8 @@ def _best_k_rule(analysis, panel, spine, k_range, claim, base) -> dict:
         "finding": f"{panel['panel']}: best k_x {_g(best.k)} N/m (d_x {_g(best.d)}), CoT_pos "
         f"{_ci(e.value, e.lo, e.hi, 2)} at {best.extras.get('speed_m_s') or 0:.2f} m/s, "
         f"{e.n_seeds} seeds; not distinguishable: k_x {', '.join(_g(k) for k in ks)}; "
-        f"left out: {len(left['off_speed'])} off-speed, {len(left['fall_more'])} falling more, "
-        f"{len(left['all_fell'])} all fell",
+        f"left out: {len(left['off_speed'])} off-speed, {len(left['falls'])} not tested (falls), "
+        f"{len(left['fall_more'])} falling more, {len(left['all_fell'])} all fell; best {left['selection']}",
     }
 
 
@@ -246,7 +248,7 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
         and c.est is not None
         and c.spine in (BASELINE_OF[spine], *BASELINES)
     ]
-    on = [c for c in bases if not c.off_speed]
+    on = [c for c in bases if not c.off_speed and stands(c)]
     pick = [c for c in on if c.spine == BASELINE_OF[spine]] or on
     if not pick:
         speeds = ", ".join(f"{c.spine} {c.extras.get('speed_m_s') or 0:.2f}" for c in bases) or "none ran"
@@ -254,12 +256,15 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
             **base,
             "claim": claim,
             "verdict": "not tested",
-            "finding": f"no baseline within 0.05 m/s of {ref['target_speed_m_s']:.2f} m/s ({speeds} m/s): "
+            "finding": f"no standing baseline within {bases[0].speed_tolerance_m_s if bases else 0.05:.2f} "
+            f"m/s of {ref['target_speed_m_s']:.2f} m/s ({speeds} m/s): "
             f"no matched-speed comparison; unmatched, {_dominance(cs)}",
         }
     t = ref["target_speed_m_s"]
     b = min(pick, key=lambda c: abs((c.extras.get("speed_m_s") or 0) - t))
-    d = paired_difference(best.seeds, b.seeds)
+    split = left["selection"] == SELECTION_SPLIT
+    d = paired_difference(held_out(best.seeds), held_out(b.seeds)) if split else paired_difference(
+        best.seeds, b.seeds)
     if d is None:
         return {
             **base,
@@ -272,7 +277,11 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
         return f"{c.panel} ({_g(c.k)}, {_g(c.d)}) at {c.extras.get('speed_m_s') or 0:.2f} m/s"
 
     text = f"{where(best)} against {b.spine} {where(b)}: {_ci(d.value, d.lo, d.hi, 0, ' %')}, "
-    text += f"{d.n_seeds} seeds"
+    text += f"{d.n_seeds} seeds (best {left['selection']})"
+    if d.lo is not None and d.hi is not None:  # the source's "21 %" read two ways
+        about = d.lo <= C3_SAVING_PCT <= d.hi and d.hi < 0
+        text += (f"; about 21 % (CI holds -21 % and excludes 0): {'yes' if about else 'no'}; at least 21 % "
+                 f"(CI at or below -21 %): {'yes' if d.hi <= C3_SAVING_PCT else 'no'}")
     if metric == ELEC:
         sens = []
         for c, scale in ELEC_SENSITIVITY.items():

@@ -53,7 +53,9 @@ EXTRA = (
 )
 if not set(METRICS + EXTRA) <= set(TABLE):
     raise ImportError(f"report metrics not in sparc_quad.metrics.TABLE: {set(METRICS + EXTRA) - set(TABLE)}")
-SPEED_TOLERANCE_M_S = 0.05
+SPEED_TOLERANCE_M_S = 0.05  # emergent speed (gait A): the band about the panel's target
+# a commanded speed: a cell that misses its command by more than this is not judged
+COMMANDED_SPEED_TOLERANCE_M_S = 0.03
 
 
 class ReportError(ValueError):
@@ -104,6 +106,7 @@ class Cell:
     seeds: dict = field(default_factory=dict, repr=False)  # seed -> values (pairing against other cells)
     baseline: str | None = None
     target_speed_m_s: float | None = None
+    speed_tolerance_m_s: float = SPEED_TOLERANCE_M_S
 
     @property
     def all_fell(self) -> bool:
@@ -112,7 +115,7 @@ class Cell:
     @property
     def off_speed(self) -> bool:
         v, t = self.extras.get("speed_m_s"), self.target_speed_m_s
-        return v is not None and t is not None and abs(v - t) > SPEED_TOLERANCE_M_S
+        return v is not None and t is not None and abs(v - t) > self.speed_tolerance_m_s
 
     @property
     def hatched(self) -> bool:
@@ -294,6 +297,7 @@ def analyse(trials: list[Trial], n_boot: int = 400) -> dict:
                         seeds,
                         base,
                         target,
+                        COMMANDED_SPEED_TOLERANCE_M_S if source == "commanded" else SPEED_TOLERANCE_M_S,
                     )
                 )
     return {"panels": panels, "metrics": metrics, "cells": cells, "optima": optima(cells, n_boot)}
@@ -324,7 +328,8 @@ def optima(cells: list[Cell], n_boot: int = 400) -> list[dict]:
             "spine": spine,
             "metric": metric,
             "best": best.row() if best else None,
-            **{f"left_out_{k}": [_brief(c) for c in v] for k, v in left.items()},
+            **{f"left_out_{k}": [_brief(c) for c in v] for k, v in left.items() if k != "selection"},
+            "selection": left.get("selection"),
         }
         if best is not None:
             doc.update(

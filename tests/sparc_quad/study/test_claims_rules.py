@@ -24,7 +24,8 @@ def cot(spine: str, k: float | None, d: float | None, L: float) -> float:
     return 0.7 + 1.5 * np.log(k / 800.0) ** 2 + 0.005 * abs(d - 8.0) + 20.0 * abs(L - 0.075)
 
 
-def make(folder, *, Ls=(0.075,), speed_of=None, fall=None, n_seeds=10, spines=("rigid", "impedance")):
+def make(folder, *, Ls=(0.075,), speed_of=None, fall=None, n_seeds=10, spines=("rigid", "impedance"),
+         spread=0.1):
     rng = np.random.default_rng(0)
     hashes = []
     cells = [(s, None, None) for s in spines if s.startswith("rigid")]
@@ -44,7 +45,7 @@ def make(folder, *, Ls=(0.075,), speed_of=None, fall=None, n_seeds=10, spines=("
                 }
                 if k is not None:
                     cfg.update(kx=k, dx=d)
-                mean = cot(spine, k, d, L) * (1.0 + 0.1 * rng.normal())
+                mean = cot(spine, k, d, L) * (1.0 + spread * rng.normal())
                 v = (speed_of or {}).get((spine, k, d), 0.9)
                 fell = bool(fall and fall(spine, k, d, seed))
                 strides = [{"cot_pos_total": float(mean + rng.normal(0, 0.01))} for _ in range(15)]
@@ -87,7 +88,8 @@ def test_motor_spine_is_compared_with_rigid_impedance_passive_with_locked(tmp_pa
 
 
 def test_step_length_as_a_factor_decides_c2(tmp_path):
-    rows = evaluate(make(tmp_path, Ls=(0.06, 0.075, 0.12)))
+    # a 5 % seed-to-seed spread: the best cell is chosen on 5 seeds and judged on the other 5
+    rows = evaluate(make(tmp_path, Ls=(0.06, 0.075, 0.12), spread=0.05))
     r = _row(rows, "C2")
     assert r["verdict"] == "reproduced" and r["best_L_m"] == 0.075, r
     assert "over L 60, 75, 120 mm" in r["finding"]
@@ -96,14 +98,17 @@ def test_step_length_as_a_factor_decides_c2(tmp_path):
     assert _row(rows, "C2")["verdict"] == "not tested"  # L fixed outside 70-80 mm
 
 
-def test_one_fall_in_ten_does_not_exclude_a_cell_zero_in_ten_would(tmp_path):
-    res = make(tmp_path, fall=lambda s, k, d, seed: (s, k, d) == ("impedance", 800.0, 8.0) and seed == 0)
+def test_a_cell_needs_eight_of_ten_seeds_standing(tmp_path):
+    """2 falls in 10: judged (and best); 3 in 10: not tested (falls), never scored from its survivors."""
+    res = make(tmp_path, fall=lambda s, k, d, seed: (s, k, d) == ("impedance", 800.0, 8.0) and seed < 2)
     o = next(o for o in res["optima"] if o["spine"] == "impedance" and o["metric"] == "cot_pos_total")
-    assert (o["best"]["k"], o["best"]["d"]) == (800.0, 8.0) and o["best"]["n_fell"] == 1
-    res = make(tmp_path / "b", fall=lambda s, k, d, seed: (s, k, d) == ("impedance", 800.0, 8.0) and seed < 8)
+    assert (o["best"]["k"], o["best"]["d"]) == (800.0, 8.0) and o["best"]["n_fell"] == 2
+    assert o["selection"].startswith("chosen on the even seeds")
+    res = make(tmp_path / "b", fall=lambda s, k, d, seed: (s, k, d) == ("impedance", 800.0, 8.0) and seed < 3)
     o = next(o for o in res["optima"] if o["spine"] == "impedance" and o["metric"] == "cot_pos_total")
     assert (o["best"]["k"], o["best"]["d"]) != (800.0, 8.0)
-    assert [(c["k"], c["d"]) for c in o["left_out_fall_more"]] == [(800.0, 8.0)]
+    assert [(c["k"], c["d"]) for c in o["left_out_falls"]] == [(800.0, 8.0)]
+    assert o["left_out_fall_more"] == []
 
 
 def test_untested_conditions_say_so(tmp_path):
@@ -125,3 +130,19 @@ def test_fully_fallen_cells_plot_as_fallen(tmp_path):
     fallen = [c for c in doc["cells"] if c["k"] == 1200.0 and c["metric"] == "cot_pos_total"]
     assert fallen and all(c["mean"] is None and c["n_fell"] == c["n"] for c in fallen)
     assert all(len(c["per_seed"]) == 10 for c in doc["cells"] if c["mean"] is not None)
+
+
+def test_a_commanded_speed_is_judged_within_three_cm_per_s():
+    """A speed-commanded gait's cell that misses its command by more than 0.03 m/s is off speed; gait A's
+    emergent speed keeps its 0.05 m/s band about the panel's target."""
+    from sparc_quad.study.report import COMMANDED_SPEED_TOLERANCE_M_S, Cell, panel_target
+
+    assert panel_target({"gait": "authors-raibert", "speed": 0.9}, None) == (0.9, "commanded")
+
+    def cell(v: float, tol: float) -> Cell:
+        return Cell("p", "impedance", 800.0, 8.0, "cot_pos_total", 10, 0, 0.0, 0.0, 0.3, None, None,
+                    {"speed_m_s": v}, {}, None, 0.9, tol)
+
+    assert cell(0.86, COMMANDED_SPEED_TOLERANCE_M_S).off_speed
+    assert not cell(0.88, COMMANDED_SPEED_TOLERANCE_M_S).off_speed
+    assert not cell(0.86, 0.05).off_speed
