@@ -27,6 +27,7 @@ runs `--repeat` times, interleaved (a burst of load hits both alike); each figur
 Goal: the MuJoCo bound of the spined dog at >= 20 simulated s per CPU s with physics >= 0.5.
 
     python bench/engines.py --json out/bench/engines.json [--repeat 3] [--duration 10] [--host spined-dog]
+        [--gait sine|authors-raibert]
 """
 
 from __future__ import annotations
@@ -46,14 +47,21 @@ GOAL_SIM_S_PER_CPU_S = 20.0
 GOAL_PHYSICS_SHARE = 0.5
 
 
-def trial(engine: str, host: str, duration_s: float) -> dict:
+GAITS = ("sine", "authors-raibert")
+
+
+def trial(engine: str, host: str, duration_s: float, gait: str = "sine") -> dict:
+    """Gait A (the authors' sine bound, L 0.08 m, k_x 800 N/m) or gait C (their speed-commanded Raibert
+    bound at 0.9 m/s, their later model: joint friction and damping), seed 0."""
+    if gait == "authors-raibert":
+        return {"gait": gait, "host": host, "engine": engine, "duration": duration_s, "speed": 0.9, "seed": 0}
     return {"gait": "sine", "variant": "authors", "host": host, "engine": engine, "duration": duration_s,
             "step_length": 0.08, "kx": 800.0, "seed": 0}
 
 
 def one_run(engine: str, host: str, duration_s: float, profile: dict | None = None,
-            held_steps: bool = True) -> dict:
-    cfg = bound_config(trial(engine, host, duration_s))
+            held_steps: bool = True, gait: str = "sine") -> dict:
+    cfg = bound_config(trial(engine, host, duration_s, gait))
     c0, w0 = time.process_time(), time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a short or fallen run's metric warnings
@@ -88,6 +96,8 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--duration", type=float, default=10.0, help="simulated s per run")
     ap.add_argument("--host", default="spined-dog")
+    ap.add_argument("--gait", choices=GAITS, default="sine",
+                    help="sine: gait A (default); authors-raibert: gait C at 0.9 m/s")
     args = ap.parse_args()
     if args.repeat < 1 or args.duration <= 0:
         print("engines: need --repeat >= 1 and --duration > 0", file=sys.stderr)
@@ -98,15 +108,15 @@ def main() -> int:
     full: list[dict] = []  # MuJoCo with every step through the full path
     for _ in range(args.repeat):
         for e in engines:
-            runs[e].append(one_run(e, args.host, args.duration))
+            runs[e].append(one_run(e, args.host, args.duration, gait=args.gait))
             if e == "mujoco":
-                full.append(one_run(e, args.host, args.duration, held_steps=False))
-    result: dict = {"host": args.host, "trial": trial("<engine>", args.host, args.duration),
+                full.append(one_run(e, args.host, args.duration, held_steps=False, gait=args.gait))
+    result: dict = {"host": args.host, "trial": trial("<engine>", args.host, args.duration, args.gait),
                     "repeat": args.repeat, "skipped": skipped}
     for e in engines:
         best = max(runs[e], key=lambda r: r["loop_sim_s_per_cpu_s"])
         prof: dict[str, float] = {}
-        one_run(e, args.host, args.duration, profile=prof)
+        one_run(e, args.host, args.duration, profile=prof, gait=args.gait)
         total = sum(prof.values())
         result[e] = {**best, "phase_share": {k: prof[k] / total for k in PROFILE_PHASES},
                      "phase_us_per_step": {k: 1e6 * prof[k] / (args.duration * 1000) for k in PROFILE_PHASES},
