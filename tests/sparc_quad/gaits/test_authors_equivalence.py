@@ -170,7 +170,7 @@ def test_the_spine_node_receives_the_schedule_as_commands():
         est = EstimatorOutput(0.0, 0.1, 250.0)
         sp.begin(est, [-0.6, 1.2, -0.6], [0.0, 0.0, 0.0], 3.999)
         sp.finish()
-        assert sp.robot.command is c and sp.plant.torso().ddq1 == 0.0
+        assert sp.robot.command is c and sp.body.torso().ddq1 == 0.0
         sp.begin(est, [-0.6, 1.2, -0.6], [0.0, 0.0, 0.0], 4.0)
         sp.finish()
         c = sp.robot.command
