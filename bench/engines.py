@@ -18,7 +18,7 @@ runs `--repeat` times, interleaved (a burst of load hits both alike); each figur
   is world.step: torques in, engine step, state read). Profiling runs every step through the full path,
   so these shares are the full path's.
 - held steps: MuJoCo runs the steps between the gait's control calls in chunks (`QuadWorld.step_chunk`,
-  see sparc_quad/bound/run.py); `held_share` is the share of steps that went through them. The same
+  see sparc_quad/bound/held_loop.py); `held_share` is the share of steps that went through them. The same
   bound with every step through the full path (`run_bound(..., held_steps=False)`, identical series) is
   run alongside, interleaved, as `mujoco_full_path`, and `held_over_full_loop` is the ratio of the two
   loops' sim s per CPU s measured in this run. In a chunk the engine-step time is still the sum of the

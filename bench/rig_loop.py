@@ -1,4 +1,4 @@
-"""Cost of the robot side's one loop in the bench rig: `bench.rig.run` (RobotSide + BenchPlant +
+"""Cost of the robot side's one loop in the bench rig: `bench.rig.run` (RobotSide + BenchBody +
 DirectPort: torso/feedback messages, frame clipping, motor model, log) against the bare loop it replaced
 (controller on the world's measured state, step), same trial, same run.
 

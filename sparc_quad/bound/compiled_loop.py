@@ -1,5 +1,6 @@
-"""A bound's loop with its control half in one compiled call per step (`bound.step_kernel`): what `run_bound`
-runs when the run's per-step code is compiled and the step is the plain one (see `CompiledLoop.why_not`).
+"""A bound's loop with its control half in one compiled call per step (`bound.step_kernel`): the step loop
+(`bound.stepping`) `bound.loops.choose_loop` picks when the run's per-step code is compiled and the step is
+the plain one (see `CompiledLoop.why_not`).
 
 Each step: the world's state packed into the kernel's input, the kernel (estimate, spine, legs, torque
 order, log row, fall test), the torques handed to the world, the world's step. The estimator, the spine
@@ -14,6 +15,7 @@ import struct
 import numpy as np
 
 from sparc_quad.bound import step_kernel as sk
+from sparc_quad.bound.stepping import Ended, Steps
 from sparc_quad.sim.bound_log import COLUMNS, DERIVED, LEG_JOINTS, LEGS
 from sparc_quad.sim.fall import FALL_REASONS
 
@@ -25,6 +27,9 @@ if sorted((*(COLUMNS[c] for c in _COLS), *DERIVED)) != sorted(COLUMNS):
 
 class CompiledLoop:
     """The loop of one bound over `world`, `spine` (a DirectSpine) and `gait` (a CompiledBoundController)."""
+
+    name = "compiled"
+    why = "the spine law and the bound controller are compiled and the estimator's base motion is fixed"
 
     @staticmethod
     def why_not(world, spine, gait) -> str | None:
@@ -88,11 +93,13 @@ class CompiledLoop:
         o = self._at[name]
         return self.ws[o:o + self._size[name]]
 
-    def run(self, log: np.ndarray, n: int, stop=None,
-            stop_on_fall: bool = True) -> tuple[int, bool, float | None, str | None]:
-        """Steps 0 .. n - 1 into `log` (rows of COLUMNS; the derived columns left as they are). Returns
-        (rows logged, fell, the first fall's time s, its reason), as the reference loop of `run_bound`."""
+    def run(self, s: Steps) -> Ended:
+        """Steps 0 .. s.n - 1 of this loop's world, spine and gait into `s.log` (rows of COLUMNS; the derived
+        columns left as they are), as the Python loop (`bound.python_loop`) runs them."""
         world, gait = self.world, self.gait
+        if (s.world, s.gait) != (world, gait):
+            raise ValueError("the steps' world and gait are not the ones this loop was built for")
+        log, n, stop, stop_on_fall = s.log, s.n, s.stop, s.stop_on_fall
         step, pack, ws, cols = self._step, self._pack, self.ws, _COLS
         sprm, res, sat = self._spine_arrays
         gprm, gst = self._gait_arrays
@@ -132,7 +139,7 @@ class CompiledLoop:
             save_estimator(world.estimator, est, noise, k)
             self._gait_out[:] = self._part("gout")  # the controller's own output, as its step leaves it
             gait.take_kernel_state()
-        return i, fell, fall_t, reason
+        return Ended(i, fell, fall_t, reason)
 
 
 def estimator_params(est, torso_accel: bool, slope_rad: float) -> np.ndarray:

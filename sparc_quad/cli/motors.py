@@ -9,9 +9,9 @@ or from the per-joint config (`--motor-config`, default the packaged motors.toml
 the bus and sends stop frames to every motor when they stop while the motors run (see
 `spine_module.buses.cybergear.watchdog`).
 
-`emulate` answers as motors `--ids` on the bus until SIGINT/SIGTERM: `--plant free` (an inertia per motor,
-real time) or `--plant bench` (the pybullet bench spine), `--lockstep` to step the plant once per full set
-of commands instead of in real time.
+`emulate` answers as motors `--ids` on the bus until SIGINT/SIGTERM: `--load free` (an inertia per motor,
+real time) or `--load bench` (the pybullet bench spine), `--lockstep` to step the load once per full set
+of commands instead of in real time. (`--plant` is the old spelling of `--load`.)
 """
 
 from __future__ import annotations
@@ -51,9 +51,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--new-id", type=in_range(1, MOTOR_ID_MAX, kind=int), default=None,
                    help=f"set-id: the new id (1..{MOTOR_ID_MAX}); --ids: the old one")
     p.add_argument("--yes", action="store_true", help="enable/zero/set-id: do it without asking")
-    p.add_argument("--plant", choices=("free", "bench"), default="free",
-                   help="emulate: physics behind the motors (bench needs the [sim] extra)")
-    p.add_argument("--lockstep", action="store_true", help="emulate: one plant step per full command set")
+    p.add_argument("--load", "--plant", dest="load", choices=("free", "bench"), default="free",
+                   help="emulate: what the motors drive (bench needs the [sim] extra; --plant: old spelling)")
+    p.add_argument("--lockstep", action="store_true", help="emulate: one load step per full command set")
     p.add_argument("--duration", type=wall_duration, default=None,
                    help=f"emulate, watchdog: stop after this many seconds, up to {WALL_DURATION_MAX_S:g} "
                         "(default: until Ctrl-C)")
@@ -144,13 +144,13 @@ def run(args: argparse.Namespace) -> int:
         return 0 if all(fb is not None for fb in got.values()) else 1
 
 
-def _plant_maker(args: argparse.Namespace, ids: list[int]):
-    """A function making (world or None, plant); its modules are imported now, before any bus opens, so a
+def _load_maker(args: argparse.Namespace, ids: list[int]):
+    """A function making (world or None, load); its modules are imported now, before any bus opens, so a
     missing extra is named before anything happens on the bus."""
-    from sparc_quad.sim.cybergear_emulator import FreePlant
+    from sparc_quad.sim.cybergear_emulator import FreeLoad
 
-    if args.plant == "free":
-        return lambda: (None, FreePlant(ids))
+    if args.load == "free":
+        return lambda: (None, FreeLoad(ids))
     from sparc_quad.sim.bench_world import BenchWorld
     from sparc_quad.sim.cybergear_bench import BenchCoupling
 
@@ -162,13 +162,13 @@ def _plant_maker(args: argparse.Namespace, ids: list[int]):
 
 
 def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: int) -> int:
-    make_plant = _plant_maker(args, ids)
+    make_load = _load_maker(args, ids)
     with stop_on_signals() as stop:
         bus = open_can(args.can_interface, args.can_channel, bitrate, dict(args.can_option))
         world = None
         try:
-            world, plant = make_plant()
-            _serve(args, ids, host, cfg, bus, plant, stop)
+            world, load = make_load()
+            _serve(args, ids, host, cfg, bus, load, stop)
         finally:
             bus.shutdown()
             if world is not None:
@@ -176,7 +176,7 @@ def _emulate(args: argparse.Namespace, ids: list[int], host: int, cfg, bitrate: 
     return stop.exit_code()
 
 
-def _serve(args: argparse.Namespace, ids: list[int], host: int, cfg, bus, plant,
+def _serve(args: argparse.Namespace, ids: list[int], host: int, cfg, bus, load,
            stop: threading.Event) -> None:
     """Answer as the motors until `stop` or --duration; print what happened."""
     from sparc_quad.sim.cybergear_emulator import CyberGearEmulator
@@ -185,12 +185,12 @@ def _serve(args: argparse.Namespace, ids: list[int], host: int, cfg, bus, plant,
     if args.can_log:
         import can
         log = can.Logger(str(args.can_log))
-    emu = CyberGearEmulator(bus, ids, plant, host_id=host, ranges=cfg.ranges, lockstep=args.lockstep,
+    emu = CyberGearEmulator(bus, ids, load, host_id=host, ranges=cfg.ranges, lockstep=args.lockstep,
                             log=log)
     emu.keep_log = False
     print(f"emulating CyberGear motor(s) {ids} on {args.can_interface}:{args.can_channel} "
-          f"({args.plant} plant{', lockstep' if args.lockstep else ''}); Ctrl-C to stop", flush=True)
-    if args.lockstep:  # the plant steps on commands; the motors' CAN timeout still runs on the clock
+          f"({args.load} load{', lockstep' if args.lockstep else ''}); Ctrl-C to stop", flush=True)
+    if args.lockstep:  # the load steps on commands; the motors' CAN timeout still runs on the clock
         t_end = None if args.duration is None else emu.clock() + args.duration
         while not stop.wait(0.001) and (t_end is None or emu.clock() < t_end):
             emu.check_can_timeouts()
@@ -199,7 +199,7 @@ def _serve(args: argparse.Namespace, ids: list[int], host: int, cfg, bus, plant,
             emu.run(stop)
     emu.shutdown()
     print(f"emulator: {len(emu.rejected)} frames rejected, {len(emu.refused)} commands refused, "
-          f"{emu.sent} frames sent, {emu.steps} plant steps", flush=True)
+          f"{emu.sent} frames sent, {emu.steps} load steps", flush=True)
     # the CAN-timeout trips in the emulator's clock, for tests and people: one JSON line
     print(json.dumps({"can_timeout_trips": [
         {"motor": i, "can_timeout_s": emu.motors[i].can_timeout_s() if i in emu.motors else None,

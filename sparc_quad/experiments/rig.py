@@ -1,7 +1,7 @@
 """The closed loop of a bench experiment: controller on measured state, plant, and what pushes on it.
 
 One `run` call is one trial: deterministic for its seed, no side effects, returns its log. It is the robot
-side's loop (`RobotSide`) with the bench world as plant and the controller in place of the node
+side's loop (`RobotSide`) with the bench world as its body and the controller in place of the node
 (`DirectPort`): the same schedule, motor model and feedback frames as the node runs.
 """
 
@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sparc_quad.robot_side.bodies import BenchBody
 from sparc_quad.robot_side.loop import RobotSide
-from sparc_quad.robot_side.plants import BenchPlant
 from sparc_quad.robot_side.ports import DirectPort
 from sparc_quad.sim.bench_world import BenchWorld
 from sparc_quad.sim.forces import ForceLaw
@@ -71,7 +71,7 @@ def run(controller: TaskController, duration_s: float, force: ForceLaw | None = 
     m = n // sample_every
     port = DirectPort(controller)
     with BenchWorld(plant=plant, seed=seed, q0=q0) as world:
-        robot = RobotSide(BenchPlant(world, force, load_cell_every=sample_every), port)
+        robot = RobotSide(BenchBody(world, force, load_cell_every=sample_every), port)
         robot.run_lockstep(n)
     a = robot.log.arrays()
     rows = slice(0, m * sample_every, sample_every)

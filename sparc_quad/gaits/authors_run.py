@@ -12,7 +12,8 @@ spine-only model. Here the project's impedance controller (spine_module.control)
 (`SpineSchedule` + `ScheduledDrive`, gain and target changes the node's command accepts) on a
 `SpineModel` built from the dog's own numbers (`spine_params`): hind lever 0.1068 m, links 0.1175 m, the
 front body's frame (their task point) as the end effector, 2.044 kg front body without its legs, no rotor
-inertia. What still differs from their law is the law (docs/bounding.md, "Gait A as the authors run it").
+inertia. What still differs from their law is the law (docs/bounding/authors-gait-a.md, "What differs from
+their spine law").
 """
 
 from __future__ import annotations
@@ -37,8 +38,8 @@ EXACT_IMU = ImuConfig(q1_noise_rad=0.0, dq1_noise_rad_s=0.0, ddq1_noise_rad_s2=0
 # velocity, v the velocity of the point at the whole robot's centre of mass moving with the hind body, both
 # in world axes, read as if body-frame. The estimator gives the spine law that a = w x v ("authors-cvel":
 # their reading, not a physically consistent body twist); "constant-twist" is the same law fed the hind
-# body's true body twist, "fixed" the paper's law (WorldConfig.base_motion; docs/bounding.md, "Gait A as the
-# authors run it")
+# body's true body twist, "fixed" the paper's law (WorldConfig.base_motion; docs/bounding/authors-gait-a.md,
+# "Base motion")
 BASE_MOTION = "authors-cvel"
 
 

@@ -13,7 +13,7 @@ Each split legs / spine / total. A spine that is not an actuator (passive spring
 its own work is still reported (`spine_work_j`, the passivity check).
 
 Kinds: "block" metrics are defined on any window (the steady window and each stride); "stride" metrics on
-a stride (the trial's value is their mean over the window's strides); "trial" metrics on the steady window
+a stride (the run's value is their mean over the window's strides); "run" metrics on the steady window
 only. Strides start where the gait clock wraps.
 """
 
@@ -65,7 +65,7 @@ class Metric:
     unit: str
     label: str  # for plots and tables
     definition: str
-    kind: str  # block | stride | trial
+    kind: str  # block | stride | run
     fn: Callable
 
 
@@ -329,23 +329,23 @@ _metric("pitch_mean_front_rad", "rad", "front body pitch, mean", "mean of pitch_
     lambda w: float(w.col("pitch_front").mean()))
 for _name, _unit in (("x", "m"), ("z", "m"), ("theta", "rad")):
     _metric(f"spine_{_name}_range_{_unit}", _unit, f"spine {_name} range", f"peak-to-peak of spine_{_name}",
-            kind="trial")((lambda n: lambda w: float(np.ptp(w.col(f"spine_{n}"))))(_name))
+            kind="run")((lambda n: lambda w: float(np.ptp(w.col(f"spine_{n}"))))(_name))
 
 
-@_metric("n_strides", "1", "complete strides", "gait-clock strides complete inside the window", kind="trial")
+@_metric("n_strides", "1", "complete strides", "gait-clock strides complete inside the window", kind="run")
 def _n_strides(w: Window) -> float:
     return float(len(w.strides))
 
 
 @_metric("commanded_gait_frequency_hz", "Hz", "gait frequency (commanded)", "mean of the gait clock's "
-         "frequency column", kind="trial")
+         "frequency column", kind="run")
 def _gait_f(w: Window) -> float:
     return float(w.col("gait_frequency_hz").mean())
 
 
 def _add_dominant(name: str) -> None:
     _metric(f"spine_{name}_dominant_hz", "Hz", f"spine {name} dominant frequency",
-            f"largest spectral peak of spine_{name}", kind="trial")(
+            f"largest spectral peak of spine_{name}", kind="run")(
         lambda w: dominant_frequency_hz(w.col(f"spine_{name}"), w.ctx.dt_s))
 
 
@@ -354,21 +354,21 @@ _add_dominant("theta")
 
 
 @_metric("spine_x_dominant_over_gait", "1", "spine x dominant / gait frequency",
-         "spine_x_dominant_hz / commanded_gait_frequency_hz", kind="trial")
+         "spine_x_dominant_hz / commanded_gait_frequency_hz", kind="run")
 def _dominant_ratio(w: Window) -> float:
     f = _gait_f(w)
     return dominant_frequency_hz(w.col("spine_x"), w.ctx.dt_s) / f if f > 0 else math.nan
 
 
 @_metric("touchdown_frequency_hz", "Hz", "hind-left touchdowns per second",
-         "(n - 1) / (time from first to last off-to-on edge of contact_HL)", kind="trial")
+         "(n - 1) / (time from first to last off-to-on edge of contact_HL)", kind="run")
 def _touchdown_frequency(w: Window) -> float:
     td = touchdowns(w.col("contact_HL"))
     return (len(td) - 1) / ((td[-1] - td[0]) * w.ctx.dt_s) if len(td) >= 2 else math.nan
 
 
 @_metric("hind_touchdowns_per_stride", "1", "hind-left touchdowns per stride",
-         "contact_HL off-to-on edges inside the complete strides / their number", kind="trial")
+         "contact_HL off-to-on edges inside the complete strides / their number", kind="run")
 def _touchdowns_per_stride(w: Window) -> float:
     if not w.strides:
         return math.nan
@@ -376,41 +376,41 @@ def _touchdowns_per_stride(w: Window) -> float:
     return float(len(touchdowns(w.series.col("contact_HL")[a - 1:b]))) / len(w.strides)
 
 
-@_metric("peak_leg_torque_nm", "N*m", "peak leg torque", "max |tau| over the 12 leg joints", kind="trial")
+@_metric("peak_leg_torque_nm", "N*m", "peak leg torque", "max |tau| over the 12 leg joints", kind="run")
 def _peak_leg(w: Window) -> float:
     return float(np.abs(w.series.tau_legs[w.a:w.b]).max())
 
 
 @_metric("leg_saturation_share", "1", "leg saturation share",
-         "fraction of samples with a leg torque at the host's limit", kind="trial")
+         "fraction of samples with a leg torque at the host's limit", kind="run")
 def _leg_sat(w: Window) -> float:
     return float(saturated(w.series.tau_legs[w.a:w.b], w.ctx.leg_torque_limit_nm).any(axis=1).mean())
 
 
-@_metric("peak_spine_torque_nm", "N*m", "peak spine torque", "max |tau| over q2..q4", kind="trial")
+@_metric("peak_spine_torque_nm", "N*m", "peak spine torque", "max |tau| over q2..q4", kind="run")
 def _peak_spine(w: Window) -> float:
     return float(np.abs(w.series.tau_spine[w.a:w.b]).max())
 
 
 @_metric("spine_torque_rms_nm", "N*m", "spine torque RMS (holding torque)", "RMS of tau over q2..q4 and "
-         "samples (for rigid-impedance: the torque that holds the spine)", kind="trial")
+         "samples (for rigid-impedance: the torque that holds the spine)", kind="run")
 def _spine_rms(w: Window) -> float:
     return float(np.sqrt((w.series.tau_spine[w.a:w.b] ** 2).mean()))
 
 
 @_metric("spine_saturation_share", "1", "spine saturation share",
-         "fraction of samples with a spine torque at the spine actuator's limit", kind="trial")
+         "fraction of samples with a spine torque at the spine actuator's limit", kind="run")
 def _spine_sat(w: Window) -> float:
     return float(saturated(w.series.tau_spine[w.a:w.b], w.ctx.spine_torque_limit_nm).any(axis=1).mean())
 
 
 @_metric("peak_spine_power_w", "W", "peak spine power", "max over samples of sum over q2..q4 of |tau dq|",
-         kind="trial")
+         kind="run")
 def _peak_spine_power(w: Window) -> float:
     return float(w.series.spine_abs_w[w.a:w.b].max())
 
 
-@_metric("lateral_drift_m", "m", "lateral drift", "y change over the window", kind="trial")
+@_metric("lateral_drift_m", "m", "lateral drift", "y change over the window", kind="run")
 def _drift(w: Window) -> float:
     y = w.col("y")
     return float(y[-1] - y[0])
@@ -418,11 +418,11 @@ def _drift(w: Window) -> float:
 
 BLOCK = tuple(m for m in TABLE.values() if m.kind == "block")
 STRIDE = tuple(m for m in TABLE.values() if m.kind == "stride")
-TRIAL = tuple(m for m in TABLE.values() if m.kind == "trial")
+RUN = tuple(m for m in TABLE.values() if m.kind == "run")
 
 
 def empty() -> dict:
-    """Every metric NaN: what a trial without a steady window reports."""
+    """Every metric NaN: what a run without a steady window reports."""
     return dict.fromkeys(TABLE, math.nan)
 
 
@@ -441,7 +441,7 @@ def measure(s: np.ndarray, ctx: Context, t_start_s: float) -> dict:
     t = s[:, _IDX["t"]] if len(s) else np.zeros(0)
     w_idx = np.flatnonzero(t >= t_start_s)
     if len(w_idx) < 2:
-        return _warn(out, "steady window is empty (0 complete strides): the trial ended or fell before its "
+        return _warn(out, "steady window is empty (0 complete strides): the run ended or fell before its "
                           "start-up was over")
     series = Series(s, ctx)
     a, b = int(w_idx[0]), len(s)
@@ -455,7 +455,7 @@ def measure(s: np.ndarray, ctx: Context, t_start_s: float) -> dict:
         st = {m.name: m.fn(sw) for m in (*BLOCK, *STRIDE)}
         st["t_start_s"] = float(t[sa])
         strides.append(st)
-    out.update({m.name: m.fn(whole) for m in (*BLOCK, *TRIAL)})
+    out.update({m.name: m.fn(whole) for m in (*BLOCK, *RUN)})
     for m in STRIDE:
         out[m.name] = float(np.mean([st[m.name] for st in strides])) if strides else math.nan
     out["strides"] = strides

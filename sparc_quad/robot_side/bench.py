@@ -1,4 +1,4 @@
-"""The stand-in robot for the bench spine: `RobotSide` with the pybullet bench world as its plant.
+"""The stand-in robot for the bench spine: `RobotSide` with the pybullet bench world as its body.
 
 `BenchRobot` speaks over any port (in process, LCM); `run_inprocess` is the node and the robot in one
 thread in lockstep, the reference the LCM and CAN runs are compared with.
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from sparc_quad.robot_side.bodies import BenchBody
 from sparc_quad.robot_side.loop import RobotConfig, RobotSide
-from sparc_quad.robot_side.plants import BenchPlant
 from sparc_quad.robot_side.ports import InProcessPort, Port
 from sparc_quad.robot_side.scripts import BenchScript
 from sparc_quad.sim.bench_world import BenchWorld
@@ -29,7 +29,7 @@ class BenchRobot(RobotSide):
                  cosim: Callable[[int, float], None] | None = None) -> None:
         self.world = world
         self.script = script if script is not None else BenchScript()
-        super().__init__(BenchPlant(world, self.script.force), port, self.script.command, config, cosim)
+        super().__init__(BenchBody(world, self.script.force), port, self.script.command, config, cosim)
 
     def _n(self, n_ticks: int | None) -> int:
         return n_ticks if n_ticks is not None else round(self.script.duration_s / self.dt)

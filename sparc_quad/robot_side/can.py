@@ -1,7 +1,7 @@
 """The spine node with `--motors can` in one process: node -> CanMotorBus -> virtual CAN -> emulated
 CyberGears (lockstep; their firmware applies `MotorCommand.torque`) -> pybullet bench spine.
 
-`RobotSide` with the `EmulatedCyberGears` plant and the `CanEmulatorPort`: torso state, robot heartbeat
+`RobotSide` with the `EmulatedCyberGears` body and the `CanEmulatorPort`: torso state, robot heartbeat
 and the torso computer's spine command (from the script) reach the node in process, as in the in-process
 run; the motors' feedback and commands are CAN frames. CAN carries no load cell, so the rig's load cell is
 logged by world time and paired with the node's states by stamp (`NodeCanRun.states_arrays`).
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import can
 import numpy as np
 
+from sparc_quad.robot_side.bodies import EmulatedCyberGears
 from sparc_quad.robot_side.loop import RobotConfig, RobotSide
-from sparc_quad.robot_side.plants import EmulatedCyberGears
 from sparc_quad.robot_side.ports import CanEmulatorPort
 from sparc_quad.robot_side.scripts import BenchScript
 from sparc_quad.robot_side.states import states_arrays

@@ -1,5 +1,5 @@
 """The robot side's one loop: per tick, publish torso state, heartbeat and spine command on schedule and
-the motor feedback last; then take the node's motor command, let the motors apply it, step the plant.
+the motor feedback last; then take the node's motor command, let the motors apply it, step the body.
 
 - lockstep: wait for the command answering this tick's feedback, so a co-simulation is deterministic
   whatever the machine's speed (time = ticks x dt); every `retry_s` without an answer the tick's torso
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sparc_quad.robot_side.bodies import Body
 from sparc_quad.robot_side.motors import MotorModel, as_frame
-from sparc_quad.robot_side.plants import Plant
 from sparc_quad.robot_side.ports import Port
 from sparc_quad.robot_side.watchdog import HeartbeatWatchdog
 from spine_module import params as P
@@ -47,7 +47,7 @@ class RobotConfig:
 
 class RobotLog:
     """Per tick: robot time `t` s, whether a command answered the tick, the robot's latched fault, the
-    lockstep round trip (feedback out -> answer in, wall s; NaN otherwise), and the plant's columns (bench:
+    lockstep round trip (feedback out -> answer in, wall s; NaN otherwise), and the body's columns (bench:
     true q rad, true task pose x, applied F_x and load-cell reading N, applied torque N*m)."""
 
     def __init__(self) -> None:
@@ -68,14 +68,14 @@ class RobotLog:
 
 
 class RobotSide:
-    def __init__(self, plant: Plant, port: Port,
+    def __init__(self, body: Body, port: Port,
                  command: SpineCommand | Callable[[float], SpineCommand] | None = None,
                  config: RobotConfig | None = None,
                  cosim: Callable[[int, float], None] | None = None) -> None:
-        self.plant, self.port, self.command = plant, port, command
+        self.body, self.port, self.command = body, port, command
         self.cfg = config if config is not None else RobotConfig()
         self.cosim = cosim
-        self.dt = plant.dt_s
+        self.dt = body.dt_s
         self._dt_us = round(self.dt * 1e6)
         self._hb_every = max(1, round(self.cfg.heartbeat_period_s / self.dt))
         self._cmd_every = max(1, round(self.cfg.command_period_s / self.dt))
@@ -107,7 +107,7 @@ class RobotSide:
     def publish_tick(self, wall_now: float | None = None) -> float:
         """Publish torso state, heartbeat and command (when due), then the motor feedback of this tick."""
         k, t = self.k, self.now()
-        torso = self.plant.torso()
+        torso = self.body.torso()
         torso.stamp_s, torso.seq = t, k
         heartbeat = command = None
         if k % self._hb_every == 0:
@@ -118,8 +118,8 @@ class RobotSide:
             command.stamp_s, command.seq = t, self._cmd_seq
             self._cmd_seq += 1
         fb = None
-        if not self.plant.motors_on_bus:
-            fb = as_frame(self.plant.feedback(), self.plant.quantise)
+        if not self.body.motors_on_bus:
+            fb = as_frame(self.body.feedback(), self.body.quantise)
             fb.stamp_s, fb.seq = t, k
         self.t_feedback_wall = self.port.publish_tick(torso, heartbeat, command, fb)
         self._sent = (torso, fb)
@@ -128,13 +128,13 @@ class RobotSide:
         return t
 
     def finish_tick(self, cmd: MotorCommand | None, rtt_s: float = math.nan) -> None:
-        """Apply `cmd` (None: the motors keep the last one) and step the plant by one tick."""
-        if not self.plant.motors_on_bus:
+        """Apply `cmd` (None: the motors keep the last one) and step the body by one tick."""
+        if not self.body.motors_on_bus:
             self.motors.accept(cmd, self._clock)
-            q, dq = self.plant.joint_state()
-            self.plant.step(self.motors.torque(q, dq, self._clock, self.latched))
+            q, dq = self.body.joint_state()
+            self.body.step(self.motors.torque(q, dq, self._clock, self.latched))
         self.log.add(t=self.now(), answered=cmd is not None, latched=self.latched, rtt_s=rtt_s)
-        self.plant.record(self.log)
+        self.body.record(self.log)
         self.k += 1
 
     # -- running -------------------------------------------------------------------------------------
@@ -156,7 +156,7 @@ class RobotSide:
             rtt = time.perf_counter() - self.t_feedback_wall
         else:
             cmd, rtt = self.port.take_command(0.0, want_seq=None), math.nan
-        if cmd is None and not self.plant.motors_on_bus:
+        if cmd is None and not self.body.motors_on_bus:
             self.unanswered += 1
             if lockstep and self.unanswered in (1, 10, 100):
                 log.warning("tick %d: no answer from the node", self.k)

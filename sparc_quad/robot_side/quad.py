@@ -1,7 +1,7 @@
 """The quadruped sim as the robot side of the spine interface: the spine node computes the spine torques.
 
 `NodeSpine` is `run_bound`'s reference `SimSpine`: each `begin`/`finish` pair is one `RobotSide` tick
-with the quadruped's spine as the plant (torso state from the estimator emulation with q̈1 valid and, when
+with the quadruped's spine as the body (torso state from the estimator emulation with q̈1 valid and, when
 the world's `base_motion` gives one, the base acceleration valid; the
 run's impedance command every 10 ms, feedback as CyberGear frames, the node's answer through the motor
 model).
@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sparc_quad.robot_side.bodies import QuadBody
 from sparc_quad.robot_side.loop import RobotConfig, RobotSide
-from sparc_quad.robot_side.plants import QuadPlant
 from sparc_quad.robot_side.ports import InProcessPort, LcmPort, Port
 from sparc_quad.robot_side.states import states_arrays
 from sparc_quad.sim.quadruped_world import EstimatorOutput
@@ -49,7 +49,7 @@ class NodeSpine:
         logged task pose uses (and an in-process node's controllers). `torso_accel` False sends q̈1 = 0."""
         self.port, self.node, self.node_io = port, node, node_io
         self.lockstep = lockstep
-        self.plant = QuadPlant(dt_s)
+        self.body = QuadBody(dt_s)
         self.gains, self.friction, self.schedule = gains, friction, schedule
         self._switched = schedule is None
         if schedule is None:
@@ -59,7 +59,7 @@ class NodeSpine:
                                     (schedule.x_d0_m, schedule.z_d_m, schedule.theta_d_rad))
         self._torso_accel = torso_accel
         cosim = (lambda k, t: node.tick(t, node.receive(0.0))) if node is not None else None
-        self.robot = RobotSide(self.plant, port, command,
+        self.robot = RobotSide(self.body, port, command,
                                config if config is not None else RobotConfig(name="quad-robot"), cosim)
         self.kinematics = TaskKinematics(spine)
         self.x = self.kinematics.x
@@ -106,16 +106,16 @@ class NodeSpine:
             self._switched = True
         if not self._torso_accel:
             est = EstimatorOutput(est.q1, est.dq1, 0.0, est.base_accel)
-        self.plant.set(est, q_spine, dq_spine)
+        self.body.set(est, q_spine, dq_spine)
         self.robot.publish_tick()
         self._q[0] = est.q1
-        self._q[1:] = self.plant.q
+        self._q[1:] = self.body.q
         self.kinematics.model.update_pose(self.kinematics.data, self._q)  # x only: what is logged
 
     def finish(self) -> np.ndarray:
         """Second half: take the node's answer, let the motors apply it; the spine torques (N*m)."""
         self.robot.finish_tick(*self.robot.answer(self.lockstep))
-        return self.plant.tau
+        return self.body.tau
 
     @property
     def unanswered(self) -> int:

@@ -1,5 +1,5 @@
-"""The layout of a bound run's log row (timeseries.csv): shared by the run (`bound_run`) that writes it and
-the metrics (`sparc_quad.metrics`) that read it, so neither imports the other."""
+"""The layout of a bound run's log row (timeseries.csv): shared by the step loops (`sparc_quad.bound`) that
+write it and the metrics (`sparc_quad.metrics`) that read it, so neither imports the other."""
 
 from __future__ import annotations
 

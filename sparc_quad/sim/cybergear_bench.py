@@ -1,6 +1,6 @@
 """The pybullet bench spine behind emulated CyberGear motors: real CAN frames between controller and physics.
 
-`BenchCoupling` is the emulator's `Plant`: motor ids map to the actuated joints q2..q4 of a `BenchWorld`;
+`BenchCoupling` is the emulator's `Load`: motor ids map to the actuated joints q2..q4 of a `BenchWorld`;
 each lockstep cycle the emulator's firmware torques step the world once, with an optional external force
 law at the end effector (the bench's push-pull), and the load cell's readings are logged.
 
@@ -25,7 +25,7 @@ from spine_module.buses.base import MotorCommand
 
 
 class BenchCoupling:
-    """`Plant` for the emulator backed by the pybullet bench spine."""
+    """`Load` for the emulator backed by the pybullet bench spine."""
 
     def __init__(self, world: BenchWorld, motor_ids: Iterable[int] = (1, 2, 3), force: ForceLaw | None = None,
                  log_every: int = 1) -> None:

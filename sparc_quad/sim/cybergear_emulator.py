@@ -14,7 +14,7 @@ Behaviour modelled (CyberGear instruction manual, section 4):
 - CAN timeout (parameter CAN_TIMEOUT, 0x200C, 1/20000 s per count, 0 = off; see protocol.py for the
   source and what is assumed): a RUN motor that has received no frame addressed to it for that long
   drops to RESET (zero torque), checked on the emulator's own clock (wall time in real time, simulated
-  time in lockstep) before every plant step and by `check_can_timeouts()`; each trip is recorded in
+  time in lockstep) before every load step and by `check_can_timeouts()`; each trip is recorded in
   `timeout_trips` (motor, last frame s, trip s);
 - fault injection (`inject_fault`: feedback fault bits and a type-21 frame), a motor that stops answering
   (`set_silent`), malformed frames (`send_malformed`).
@@ -22,14 +22,14 @@ Behaviour modelled (CyberGear instruction manual, section 4):
 INTERPRETATION: a type-1 frame carries no host id; the emulator answers to the host id seen last in any
 other frame (initially `host_id`), which is how drivers that filter on bits 15..8 see the real motor.
 
-Physics: a `Plant` supplies each motor's output position/velocity and receives its torque. `FreePlant`
-is a rotor-plus-load inertia per motor; `CallbackPlant` couples any simulation (the pybullet bench spine).
+Physics: a `Load` supplies each motor's output position/velocity and receives its torque. `FreeLoad`
+is a rotor-plus-load inertia per motor; `CallbackLoad` couples any simulation (the pybullet bench spine).
 With `lockstep=True` the emulator holds the feedback to a cycle's frame (operation control, an iq_ref
 write, or a plain stop, which is what a host sends each cycle while it holds the motors stopped; a stop
 that clears faults is a handshake frame, answered at once) until every answering motor has had one,
-steps the plant by `dt` with the resulting torques, then answers all:
+steps the load by `dt` with the resulting torques, then answers all:
 the node's next cycle sees the state after the step, deterministically and as fast as the host allows.
-Without lockstep, replies are immediate and `run(stop_event)` steps the plant in real time.
+Without lockstep, replies are immediate and `run(stop_event)` steps the load in real time.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ from spine_module.messages.motor import MotorCommand
 log = logging.getLogger(__name__)
 
 
-class Plant(Protocol):
+class Load(Protocol):
     def read(self, motor_id: int) -> tuple[float, float]:
         """Output-shaft position (rad) and velocity (rad/s) of a motor."""
 
@@ -59,7 +59,7 @@ class Plant(Protocol):
         """Apply output torques (N*m) for dt seconds."""
 
 
-class FreePlant:
+class FreeLoad:
     """Each motor drives its own inertia with viscous damping (semi-implicit Euler)."""
 
     def __init__(self, ids: Iterable[int], inertia_kg_m2: float = 0.01, damping_nm_s_rad: float = 0.01,
@@ -78,7 +78,7 @@ class FreePlant:
             self.q[i] += self.dq[i] * dt
 
 
-class CallbackPlant:
+class CallbackLoad:
     """Couple a simulation through two functions: read(motor_id) -> (q, dq); step(torques, dt)."""
 
     def __init__(self, read: Callable[[int], tuple[float, float]],
@@ -106,7 +106,7 @@ class EmulatedMotor:
         "rotation": 0, "loc_kp": 30.0, "spd_kp": 1.0, "spd_ki": 0.002, "VBUS": 24.0, "CAN_TIMEOUT": 0})
     last_torque: float = 0.0
     last_rx_s: float | None = None  # emulator clock of the last frame addressed to this motor
-    last_torque_s: float | None = None  # emulator clock of the last plant step with non-zero torque
+    last_torque_s: float | None = None  # emulator clock of the last load step with non-zero torque
 
     def can_timeout_s(self) -> float:
         return int(self.params.get("CAN_TIMEOUT", 0)) / P.CAN_TIMEOUT_TICKS_PER_S
@@ -137,7 +137,7 @@ class EmulatedMotor:
 class CyberGearEmulator:
     """Emulated CyberGear motors on a python-can bus (see module docstring)."""
 
-    def __init__(self, bus: can.BusABC, ids: Iterable[int] = (1, 2, 3), plant: Plant | None = None, *,
+    def __init__(self, bus: can.BusABC, ids: Iterable[int] = (1, 2, 3), load: Load | None = None, *,
                  host_id: int = P.DEFAULT_HOST_ID, ranges: P.Ranges = P.DEFAULT_RANGES,
                  lockstep: bool = False, dt: float = 0.001, kt_nm_per_a: float = KT_NM_PER_A,
                  start: bool = True, log: can.Listener | None = None,
@@ -146,8 +146,8 @@ class CyberGearEmulator:
         self.bus = bus
         self.motors: dict[int, EmulatedMotor] = {
             i: EmulatedMotor(i, uid=bytes([0xC6, 0xB0, 0, 0, 0, 0, 0x10, i])) for i in ids}
-        self.plant: Plant = plant if plant is not None else FreePlant(ids)
-        self._plant_id = {i: i for i in ids}  # motor id -> plant id (stable across set-id)
+        self.load: Load = load if load is not None else FreeLoad(ids)
+        self._load_id = {i: i for i in ids}  # motor id -> load id (stable across set-id)
         self.host_id = host_id
         self.ranges = ranges
         self.lockstep = lockstep
@@ -156,7 +156,7 @@ class CyberGearEmulator:
         self.lock = threading.RLock()
         # the emulator's own clock (CAN timeout, timeout_trips), s: wall time when it runs in real time;
         # in lockstep its simulated time (steps x dt), which only moves when the host commands a step, so
-        # a slow host never trips the CAN timeout there (and a dead host freezes the plant)
+        # a slow host never trips the CAN timeout there (and a dead host freezes the load)
         self.clock = clock if clock is not None else (self._sim_time if lockstep else time.monotonic)
         self.timeout_trips: list[tuple[int, float, float]] = []  # (motor id, last frame s, tripped s)
         self.received: list[P.Frame] = []  # every decoded frame addressed to an emulated motor
@@ -164,7 +164,7 @@ class CyberGearEmulator:
         self.refused: list[str] = []  # commands a real motor would refuse (mode switch while running)
         self.sent = 0
         self.steps = 0
-        self.late_rephases = 0  # free-running: times the plant fell > 5 steps behind and re-phased
+        self.late_rephases = 0  # free-running: times the load fell > 5 steps behind and re-phased
         self.keep_log = True
         self._pending: set[int] = set()  # commanded this lockstep cycle
         self.log = log  # a python-can Logger: frames received and sent
@@ -173,7 +173,7 @@ class CyberGearEmulator:
 
     # --- physics -------------------------------------------------------------------------------------
     def _state(self, m: EmulatedMotor) -> tuple[float, float]:
-        q, dq = self.plant.read(self._plant_id[m.can_id])
+        q, dq = self.load.read(self._load_id[m.can_id])
         return q - m.zero_rad, dq
 
     def torques(self) -> dict[int, float]:
@@ -181,7 +181,7 @@ class CyberGearEmulator:
         for m in self.motors.values():
             p, v = self._state(m)
             m.last_torque = m.torque(p, v, self.kt)
-            out[self._plant_id[m.can_id]] = m.last_torque
+            out[self._load_id[m.can_id]] = m.last_torque
         return out
 
     def _sim_time(self) -> float:
@@ -208,11 +208,11 @@ class CyberGearEmulator:
             for m in self.motors.values():
                 if m.last_torque != 0.0:
                     m.last_torque_s = now
-            self.plant.step(torques, self.dt if dt is None else dt)
+            self.load.step(torques, self.dt if dt is None else dt)
             self.steps += 1
 
     def run(self, stop: threading.Event, realtime: bool = True) -> None:
-        """Step the plant every dt until `stop` is set (free-running mode)."""
+        """Step the load every dt until `stop` is set (free-running mode)."""
         t_next = time.perf_counter()
         while not stop.is_set():
             self.step()
@@ -290,14 +290,14 @@ class CyberGearEmulator:
             else:  # a host holding its motors stopped sends one plain stop per cycle
                 self._commanded(m)
         elif isinstance(frame, P.SetZero):
-            m.zero_rad = self.plant.read(self._plant_id[m.can_id])[0]
+            m.zero_rad = self.load.read(self._load_id[m.can_id])[0]
             self._reply_feedback(m)
         elif isinstance(frame, P.SetCanId):
             if frame.new_id in self.motors and frame.new_id != m.can_id:
                 self.refused.append(f"set id {m.can_id} -> {frame.new_id}: id in use")
                 return
             del self.motors[m.can_id]
-            self._plant_id[frame.new_id] = self._plant_id.pop(m.can_id)
+            self._load_id[frame.new_id] = self._load_id.pop(m.can_id)
             m.can_id = frame.new_id
             self.motors[m.can_id] = m
             self._tx(P.encode_device_id(m.can_id, m.uid))
@@ -389,4 +389,4 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
-__all__ = ["CallbackPlant", "CyberGearEmulator", "EmulatedMotor", "FreePlant", "Plant", "parse_ids"]
+__all__ = ["CallbackLoad", "CyberGearEmulator", "EmulatedMotor", "FreeLoad", "Load", "parse_ids"]

@@ -1,5 +1,5 @@
-"""When a bound has fallen: one test, which the Python loop (`bound_run.fall_reason`) and the compiled step
-(`bound.step_kernel`, numba compiles `fall_code`) share."""
+"""When a bound has fallen: one test, which the Python loops (`bound.python_loop.fall_reason`,
+`bound.held_loop`) and the compiled step (`bound.step_kernel`, numba compiles `fall_code`) share."""
 
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ Layout (sagittal plane, x forward, z up, all spine joints about +y):
       `-- q2 --> hind_spine -- q3 --> front_spine -- q4 --> front_body
                                                               `-- fixed --> front_trunk -- front legs
 
-Choices (each one is repeated in the URDF's header comment and in docs/bounding.md):
+Choices (each one is repeated in the URDF's header comment and in docs/bounding/robots.md):
 - The host's trunk is split at its middle into two halves of equal mass. Its inertia is read as that of
   a uniform box (dimensions solved from the principal moments); each half is half that box.
 - Hip spacing: with the spine at its equilibrium arch (x = 0.273 m), the distance between the hind and

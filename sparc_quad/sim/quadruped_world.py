@@ -423,7 +423,7 @@ class QuadWorld(ABC):
     def step(self) -> None:
         """Apply the torques, advance one dt, refresh the state."""
 
-    # ---- held steps (a controller holding its output between calls: sparc_quad.bound.run) ---------
+    # ---- held steps (a controller holding its output between calls: sparc_quad.bound.held_loop) ---
     # Only a world that can take back part of a chunk (`can_rewind`) runs them; `run_bound` steps every
     # other world in full, so these are declared here and implemented by such a world (MuJoCo).
     can_rewind = False

@@ -16,7 +16,8 @@ Layout (x forward, z up, every joint a hinge about +y):
 The authors' three spine joints are the project's q2, q3, q4; their hind body is q1's body. Their hind
 body frame sits at its centre of mass, 0.1068 m behind the first spine joint, and the front body frame
 at the last spine joint; the SPARC model the controller uses (spine_module/params.py) puts its q1 axis
-0.0632 m behind q2 and its end effector 0.0632 m ahead of q4 (docs/bounding.md, "Hosts and engines").
+0.0632 m behind q2 and its end effector 0.0632 m ahead of q4 (docs/bounding/robots.md, "The SPARC
+controller on the dog's spine").
 """
 
 from __future__ import annotations

@@ -144,7 +144,7 @@ def test_spine_node_motors_can_cli_sigterm(tmp_path):
 
 
 class _GlitchingReadout:
-    """The emulator's plant with one motor's readout off by (dq_rad, dv_rad_s) while `active`: the motor's own
+    """The emulator's load with one motor's readout off by (dq_rad, dv_rad_s) while `active`: the motor's own
     feedback frames carry the bad encoder or velocity reading (its torque law and the physics do not)."""
 
     def __init__(self, inner, motor_id: int, dq_rad: float, dv_rad_s: float) -> None:
@@ -175,8 +175,8 @@ def test_node_never_drives_on_an_implausible_frame(name, motor, dq, dv):
     def on_tick(k, emu):
         with emu.lock:
             if not glitch:
-                glitch.append(_GlitchingReadout(emu.plant, motor, dq, dv))
-                emu.plant = glitch[0]
+                glitch.append(_GlitchingReadout(emu.load, motor, dq, dv))
+                emu.load = glitch[0]
             glitch[0].active = k0 <= k < k0 + 50  # in the reply to command k: tick k + 1 reads it
     run = run_node_over_can(static_push_script(500.0, cycles=1.0), n_ticks=450, on_tick=on_tick)
     # the emulator answers command k0 - 1 in its own thread, before or after on_tick(k0): the first bad

@@ -226,7 +226,7 @@ def _driver(sim_dir: Path, duration_s: float, out: Path) -> None:
 
 def measure(raw: dict, duration_s: float) -> dict:
     """Fate and speeds from a driver record. Fall (theirs): |roll| or |pitch| of the hind body beyond
-    90 deg at a control call (their RuntimeError). Fall (project, bound.run.fall_reason on this robot,
+    90 deg at a control call (their RuntimeError). Fall (project, bound.python_loop.fall_reason on this robot,
     whose only colliding geoms are the feet): |hind pitch| or |front pitch| beyond 1 rad, |roll| beyond
     0.8 rad."""
     r = raw["record"]

@@ -26,7 +26,7 @@ def test_motors_cli(capsys, tmp_path):
         assert all(f"     {i}  c6b0" in out for i in (1, 2, 3))
         assert _motors(channel, "status") == 0 and capsys.readouterr().out.count("VBUS=24") == 3
         assert _motors(channel, "enable", "--yes") == 0 and capsys.readouterr().out.count("mode RUN") == 3
-        emu.plant.q[2] = 0.75
+        emu.load.q[2] = 0.75
         assert _motors(channel, "zero", "--yes", "--ids", "2") == 0
         assert emu.motors[2].zero_rad == 0.75
         pos = float(capsys.readouterr().out.split("position ")[1].split(" rad")[0])

@@ -121,7 +121,7 @@ def test_enable_operation_control_and_feedback(rig):
         assert [type(f) for f in emu.frames_of(P.Frame, 2)][-2:] == [P.Stop, P.Enable]
         assert emu.frames_of(P.Enable, 2)[-1].host_id == HOST
         assert wait_for(lambda: seen and seen[-1].mode == 2)
-        emu.plant.q[2] = 0.4  # the load sits at 0.4 rad
+        emu.load.q[2] = 0.4  # the load sits at 0.4 rad
         motor.motor_control(1.5, 0.7, -2.0, 30.0, 0.8)
         assert wait_for(lambda: len(emu.frames_of(P.OperationControl, 2)) == 1)
         cmd = emu.frames_of(P.OperationControl, 2)[0]
@@ -155,7 +155,7 @@ def test_parameter_writes_and_reads(rig, caplog):
             motor.run_mode = "speed"  # the firmware refuses a mode switch while running
         assert wait_for(lambda: emu.refused)
         assert "while running" in emu.refused[-1] and m.params["run_mode"] == 3
-        emu.plant.q[3] = -1.25
+        emu.load.q[3] = -1.25
         motor._fetch_parameter_list()
         assert wait_for(lambda: motor.mech_pos is not None and motor.v_bus is not None)
         assert motor.mech_pos == pytest.approx(-1.25) and motor.v_bus == pytest.approx(24.0)

@@ -100,9 +100,9 @@ def test_bench_plant_gap_closed(plain_session):
     floor (this failed at 2.2x and 3.8x the floor on q2 and q4 while the bench integrated its friction
     backward-Euler and the residual at the step's midpoint, sim/bench_world.py).
 
-    Slow tier, on an idle machine: it passes alone (2026-12-07, twice) and fails 3 of 3 beside two busy
-    loops, where lcm-logger loses spine states that the loader fills in linearly, and the filled samples
-    leave residual above the 1.1 x floor margin. Keeping filled samples out of the fit is the fix."""
+    Slow tier, on an idle machine: on a loaded one lcm-logger loses spine states that the loader fills in
+    linearly, and the filled samples leave residual above the 1.1 x floor margin
+    (notebook/2026-12-07-test-docstring-figures.md). Keeping filled samples out of the fit is the fix."""
     rep, _, _ = plain_session
     assert rep["verdict"] == "gap_closed", rep["gap_after_over_floor"]
 
@@ -141,7 +141,8 @@ def test_hidden_effect_named_on_its_joint(tmp_path, name):
     assert abs(named[0]["params"][key] / value - 1) <= HIDDEN_TOL, (named[0], value)
     # nothing else, but for a re-estimate of the known inertia about that joint's axis within
     # INERTIA_REESTIMATE, named as rotor inertia or as the equivalent link inertia (or ambiguous between them)
-    # (measured: +1.3 % on q2, +0.6 % on q4 in most runs: the bench's backward-Euler friction step)
+    # (the bench's backward-Euler friction step shifts it by about a per cent:
+    # notebook/2026-12-07-test-docstring-figures.md)
     others = [(e["name"], e["joint"], e["params"]) for e in rep["effects"]
               if e is not named[0] and not _inertia_reestimate(e)]
     unclear = [a["best"] for a in rep["ambiguous"] if not _inertia_reestimate(a["best"])]

@@ -89,13 +89,13 @@ def test_fall_reason_keeps_the_first_fall():
 
 
 def test_fall_reason_is_not_overwritten_by_later_steps(monkeypatch):
-    from sparc_quad.bound import run as bound_run
+    from sparc_quad.bound import python_loop
 
     def scripted(world, pitch_front):  # falls at 5 ms, looks fine, then "falls" differently
         k = world.steps
         return "first" if k == 5 else ("later" if k > 100 else None)
 
-    monkeypatch.setattr(bound_run, "fall_reason", scripted)
+    monkeypatch.setattr(python_loop, "fall_reason", scripted)
     with pytest.warns(RuntimeWarning):
         m = run_bound(BoundConfig(duration_s=0.3, stop_on_fall=False)).metrics
     assert m["fell"] and m["fall_reason"] == "first" and m["fall_time_s"] == pytest.approx(0.005)
@@ -151,15 +151,15 @@ def test_raibert_opt_tunes_then_runs_and_a_tuned_gait_skips_the_search():
 
 def test_a_trial_that_falls_early_reports_every_metric_as_nan_and_stops_measuring_at_the_fall():
     cfg = {"gait": "raibert", "duration": 0.6, "settle": 0.0}
-    import sparc_quad.bound.run as br
+    import sparc_quad.bound.python_loop as loop
 
-    real = br.fall_reason
+    real = loop.fall_reason
     try:
-        br.fall_reason = lambda world, pf: "scripted" if world.steps >= 50 else None
+        loop.fall_reason = lambda world, pf: "scripted" if world.steps >= 50 else None
         with pytest.warns(RuntimeWarning):
             m = run_trial(cfg)
     finally:
-        br.fall_reason = real
+        loop.fall_reason = real
     missing = [k for k in HEADLINE if k not in m]
     assert not missing, missing
     assert m["fell"] and m["fall_reason"] == "scripted" and math.isnan(m["cot_pos_total"])

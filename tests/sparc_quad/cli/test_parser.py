@@ -154,7 +154,8 @@ def test_earlier_gap_spellings_still_work(capsys):
 
 
 def test_bound_warns_when_the_gait_misses_its_speed():
-    """Measured: `bound --speed 3 --duration 6` ran at 1.908 m/s with window_ok true (solo12, pybullet)."""
+    """A gait far below its commanded speed with a good window gets the warning; the figures are those of a
+    6 s solo12 bound commanded to 3 m/s (notebook/2026-12-07-test-docstring-figures.md)."""
     from sparc_quad.cli.bound import speed_warning
 
     steady = {"window_ok": True, "fell": False, "speed_m_s": 1.908}

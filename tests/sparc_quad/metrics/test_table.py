@@ -36,7 +36,7 @@ def _series(n: int, dt: float, speed: float, freq: float) -> np.ndarray:
 
 def test_every_metric_has_unit_label_definition():
     for m in TABLE.values():
-        assert m.unit and m.label and m.definition and m.kind in ("block", "stride", "trial"), m.name
+        assert m.unit and m.label and m.definition and m.kind in ("block", "stride", "run"), m.name
     assert label("speed_m_s") == "mean speed (m/s)"
 
 

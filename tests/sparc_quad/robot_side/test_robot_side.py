@@ -15,7 +15,7 @@ from spine_module.messages import Heartbeat, SpineCommand, TorsoState
 from spine_module.messages.motor import MotorCommand, MotorFeedback
 
 
-class FakePlant:
+class FakeBody:
     dt_s = P.CONTROL_PERIOD_S
     quantise = True
     motors_on_bus = False
@@ -71,7 +71,7 @@ class FakePort(Port):
 
 def test_schedule_stamps_and_frames():
     port = FakePort()
-    robot = RobotSide(FakePlant(), port, SpineCommand())
+    robot = RobotSide(FakeBody(), port, SpineCommand())
     robot.run_lockstep(25)
     every = round(P.HEARTBEAT_PERIOD_S / P.CONTROL_PERIOD_S)
     assert [h.stamp_s for h in port.hb] == [k * 1e-3 for k in range(0, 25, every)]
@@ -84,7 +84,7 @@ def test_schedule_stamps_and_frames():
 
 def test_lockstep_resends_a_lost_tick():
     port = FakePort(lose=3)
-    robot = RobotSide(FakePlant(), port, config=RobotConfig(retry_s=0.01))
+    robot = RobotSide(FakeBody(), port, config=RobotConfig(retry_s=0.01))
     robot.run_lockstep(6)
     assert robot.retransmits == 1 and robot.unanswered == 0 and all(robot.log.answered)
     resent = [f for f in port.fb if f.seq == 3]

@@ -189,10 +189,10 @@ def test_node_spine_sends_the_base_acceleration(torso_accel):
     try:
         spine.begin(EstimatorOutput(0.0, 0.1, 7.0, ACC), Q_EQ, [0.0, 0.0, 0.0], 0.0)
         spine.finish()
-        assert spine.plant.torso().base_accel_valid
+        assert spine.body.torso().base_accel_valid
         spine.begin(EstimatorOutput(0.0, 0.1, 7.0), Q_EQ, [0.0, 0.0, 0.0], 0.001)
         spine.finish()
-        assert not spine.plant.torso().base_accel_valid
+        assert not spine.body.torso().base_accel_valid
     finally:
         spine.close()
     assert seen, "the node ran no impedance step"

@@ -126,6 +126,31 @@ def test_why_not_names_what_stops_it():
             world.close()
 
 
+def test_choose_loop_says_why_it_picked_each_loop():
+    from sparc_quad.bound.loops import choose_loop
+    from sparc_quad.bound.run import direct_spine, make_gait
+    from sparc_quad.bound.stepping import Steps
+    from sparc_quad.sim.quadruped_world import make_world
+
+    for cfg, backend, want, words in (
+            (BoundConfig(backend="numba"), "numba", "compiled", "compiled"),
+            (BoundConfig(backend="numba", spine_variant="passive"), "numba", "python", "spine"),
+            (BoundConfig(backend="python"), "python", "python", "per-step code is python")):
+        world = make_world(cfg.world)
+        try:
+            gait = make_gait(world, cfg.gait, backend)
+            s = Steps(world, direct_spine(cfg), gait, np.zeros((1, len(COLUMNS))))
+            loop = choose_loop(s, backend)
+            assert loop.name == want and words in loop.why, loop.why
+            if want == "python":
+                assert "cannot rewind" in loop.why  # pybullet: no held chunks either
+            watched = choose_loop(replace(s, profile={}, latency=2), backend)
+            assert watched.name == "python" and watched.why.startswith("profiling, actuator latency")
+            assert "turned off" in choose_loop(s, backend, held_steps=False, compiled_loop=False).why
+        finally:
+            world.close()
+
+
 def test_a_stop_request_interrupts_the_compiled_loop():
     calls = []
 

@@ -2,8 +2,9 @@
 the command sequence.
 
 - real-time ticks arrive late by up to most of a period; the heartbeat was sent a period after the tick that
-  sent the last one, so each period stretched by the lateness (90-95 Hz measured against the documented
-  100 Hz). Here ticks late by 0..0.9 ms (seeded) for 10 s of node time must give 1000 heartbeats (+-1);
+  sent the last one, so each period stretched by the lateness (below the documented 100 Hz: the rate
+  before the fix is in notebook/2026-12-07-test-docstring-figures.md). Here ticks late by 0..0.9 ms
+  (seeded) for 10 s of node time must give 1000 heartbeats (+-1);
 - the shutdown `motor_command_t` carried seq 0 and utime 0 after a monotonic sequence: it must carry the
   next seq (memq://, decoded as the robot side would).
 """

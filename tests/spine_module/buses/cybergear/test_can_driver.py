@@ -60,7 +60,7 @@ def test_handshake_and_pure_torque_operation_control():
                 cmd = emu.frames_of(P.OperationControl, i)[-1]
                 assert cmd.kp == 0.0 and cmd.kd == 0.0 and cmd.torque == pytest.approx(t, abs=24 / 65535)
             assert fb.tau == pytest.approx([1.0, -2.0, 3.0], abs=1e-3)
-            assert fb.dq[2] > 0 > fb.dq[1]  # the free plant accelerated with the torques' signs
+            assert fb.dq[2] > 0 > fb.dq[1]  # the free load accelerated with the torques' signs
         assert all(emu.motors[i].mode == P.MotorMode.RESET for i in (1, 2, 3))  # stopped on exit
         assert wait_for(lambda: all(len(sniffer.of_type(P.CommType.STOP, i)) >= 2 for i in (1, 2, 3)))
 
@@ -71,7 +71,7 @@ def test_direction_offset_and_gains_reach_the_motor():
               base.joints[1], dataclasses.replace(base.joints[2], gear_ratio=2.0))
     cfg = dataclasses.replace(base, joints=joints)
     with virtual_rig() as (channel, emu, _sn), _bus(channel, cfg) as mb:
-        emu.plant.q.update({1: 0.3, 2: -0.2, 3: 1.0})
+        emu.load.q.update({1: 0.3, 2: -0.2, 3: 1.0})
         mb.start()
         fb = mb.receive(1.0)
         assert fb.q == pytest.approx([-(0.3 - 0.5), -0.2, 0.5], abs=1e-3)

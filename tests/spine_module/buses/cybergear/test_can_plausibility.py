@@ -83,7 +83,7 @@ def test_implausible_feedback_latches_and_never_reaches_the_node(motor, position
         _after_latch_only_stops(mb, sniffer)
 
 
-class _SweepPlant:
+class _SweepLoad:
     """Motor 2 (q3) accelerates at 5000 rad/s^2 to 25 rad/s and cruises, one step per lockstep cycle."""
 
     def __init__(self) -> None:
@@ -100,13 +100,13 @@ class _SweepPlant:
 
 def test_plausible_motion_at_top_speed_is_no_fault():
     """The bounds are not tighter than the motor: q3 swept at up to 25 rad/s, 5000 rad/s^2."""
-    plant = _SweepPlant()
-    with virtual_rig(plant=plant) as (channel, _emu, _sniffer), \
+    load = _SweepLoad()
+    with virtual_rig(load=load) as (channel, _emu, _sniffer), \
             CanMotorBus(rig_config(), interface="virtual", channel=channel) as mb:
         mb.start()
         err, qs = _drive(mb, 200)
         assert err is None and mb.latched_faults == []
-        assert max(q[1] for q in qs) > 2.7 and plant.dq == 25.0
+        assert max(q[1] for q in qs) > 2.7 and load.dq == 25.0
 
 
 def test_two_motors_on_one_id_refuse_to_start():
@@ -168,7 +168,7 @@ def test_motors_answering_another_host_latch():
 
 def test_motor_outside_its_range_at_start_up_refuses():
     with virtual_rig() as (channel, emu, _sniffer):
-        emu.plant.q[1] = 1.0  # q2's range is [-1.75, 0.2] rad: 0.8 rad beyond it, margin 0.3
+        emu.load.q[1] = 1.0  # q2's range is [-1.75, 0.2] rad: 0.8 rad beyond it, margin 0.3
         mb = CanMotorBus(rig_config(), interface="virtual", channel=channel)
         try:
             with pytest.raises(MotorBusError, match=r"implausible feedback at start-up: q2 \(CAN id 1\): "

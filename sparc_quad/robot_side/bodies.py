@@ -1,7 +1,7 @@
-"""What the robot side drives: the `Plant` protocol and its three implementations.
+"""What the robot side drives: the `Body` protocol and its three implementations.
 
-- `BenchPlant`: the pybullet bench spine (`sim.bench_world.BenchWorld`) with the rig's push and load cell;
-- `QuadPlant`: the quadruped's spine inside `run_bound`, which steps the world itself (the plant holds the
+- `BenchBody`: the pybullet bench spine (`sim.bench_world.BenchWorld`) with the rig's push and load cell;
+- `QuadBody`: the quadruped's spine inside `run_bound`, which steps the world itself (the body holds the
   state of this tick and hands back the torques);
 - `EmulatedCyberGears`: the bench spine behind emulated CyberGears on a CAN bus; the motors (their
   firmware's motor law and lockstep stepping) are the emulator's, so the loop neither computes torque nor
@@ -21,9 +21,9 @@ from spine_module.messages import TorsoState
 from spine_module.messages.motor import MotorFeedback
 
 
-class Plant(Protocol):
+class Body(Protocol):
     """A robot's body as the robot side sees it. `quantise`: whether the loop must quantise its feedback
-    to the frame's LSBs (False when the plant's own sensor model does);
+    to the frame's LSBs (False when the body's own sensor model does);
     `motors_on_bus`: the motors are emulated behind a bus (feedback and stepping are theirs)."""
 
     dt_s: float
@@ -43,10 +43,10 @@ class Plant(Protocol):
         """Apply the motors' torques (N*m) for one tick."""
 
     def record(self, log) -> None:
-        """Append this tick's plant-specific columns to the robot log."""
+        """Append this tick's body-specific columns to the robot log."""
 
 
-class BenchPlant:
+class BenchBody:
     """The bench world plus the rig: push `force` at the end effector, read it with the load cell."""
 
     quantise = False  # the world's sensor model quantises (or not: the ideal plant)
@@ -92,7 +92,7 @@ class BenchPlant:
         log.add(t_world=t_world, q=q, x=x, f_true=fx, f_cell=f_cell, tau=self.world.last_applied.copy())
 
 
-class QuadPlant:
+class QuadBody:
     """The quadruped's spine for one `run_bound` tick: `set` the estimator output and spine joint state,
     tick the robot side, read `tau`; `run_bound` steps the world."""
 
@@ -143,7 +143,7 @@ class QuadPlant:
 
 class EmulatedCyberGears:
     """The bench spine behind emulated CyberGears (`sim.cybergear_bench.BenchCoupling` as the emulator's
-    plant): the emulator steps the world in lockstep when every motor has had its frame."""
+    load): the emulator steps the world in lockstep when every motor has had its frame."""
 
     quantise = False
     motors_on_bus = True
