@@ -9,6 +9,7 @@ robots), not the study's own report/CLI code, so improving a plot does not inval
 from __future__ import annotations
 
 import csv
+import gzip
 import hashlib
 import io
 import json
@@ -73,10 +74,13 @@ def write_record(trials_dir: Path, record: dict) -> Path:
 
 
 def read_record(path: Path) -> dict | None:
-    """A record, or None if the file is not a whole record (then the trial is run again)."""
+    """A record (`<hash>.json`, or gzip-compressed `<hash>.json.gz` as committed studies keep them), or None
+    if the file is not a whole record (then the trial is run again)."""
+    path = Path(path)
     try:
-        rec = json.loads(Path(path).read_text())
-    except (OSError, ValueError):
+        raw = gzip.decompress(path.read_bytes()) if path.suffix == ".gz" else path.read_bytes()
+        rec = json.loads(raw.decode("utf-8"))
+    except (OSError, ValueError, EOFError):
         return None
     if not isinstance(rec, dict) or "hash" not in rec or "config" not in rec or "status" not in rec:
         return None
@@ -88,7 +92,7 @@ def load_records(trials_dir: Path) -> list[dict]:
     if not d.is_dir():
         return []
     out = []
-    for p in sorted(d.glob("*.json")):
+    for p in sorted([*d.glob("*.json"), *d.glob("*.json.gz")]):
         rec = read_record(p)
         if rec is not None:
             out.append(rec)

@@ -166,7 +166,8 @@ def load_trials(folder: Path) -> tuple[dict, list[Trial]]:
         raise ReportError(f"{sp}: unreadable ({exc})") from None
     trials = []
     for h in hashes:
-        rec = read_record(folder / "trials" / f"{h}.json")
+        plain = folder / "trials" / f"{h}.json"
+        rec = read_record(plain if plain.exists() else plain.with_name(f"{h}.json.gz"))  # committed: gzip
         if rec is None:
             continue
         m = rec.get("metrics") or {}
