@@ -14,7 +14,7 @@ every joint, in the expected group, as a refinement, its own options) and its pl
 Plausibility bounds are scaled from the robot and the data (per joint: torque range = max(URDF effort
 limit, peak |torque|), RMS velocity and acceleration while moving; the robot's total mass), not from the
 spine. With `torque_kind: measured`, effects that act on the command (delay, deadband, saturation) are
-not candidates; a saturation limit must be exceeded by the commanded torque on 0.5-30 % of the samples.
+not candidates; a saturation limit must be exceeded by the commanded torque on >= 0.5 % of the samples.
 Near-ties are reported as ambiguous only between effects on the same joint (effects on different joints
 leave different residuals).
 """
@@ -155,10 +155,13 @@ class Search:
         return self._floors[key]
 
     def contribution(self, fit: Fit, terms: list[Term], selected: list[Term]) -> float:
-        """RMS of the terms' fitted contribution on their most affected joint, held out, in noise floors of
-        the residual the already selected terms leave (`model_floor`)."""
+        """RMS of the terms' fitted contribution on their most affected joint over all blocks, in noise
+        floors of the residual the already selected terms leave (`model_floor`, also over all blocks). Not
+        the held-out blocks alone: an effect that acts on some trials only (a torque limit the held-out
+        trial's command rarely reaches, while a training trial's controller winds up against it) is as
+        large as it is where it acts; the held-out improvement is checked on its own."""
         sel = self.sel
-        blocks = sel.test or sel.train
+        blocks = range(len(sel.lib.blocks))
         lin = [t for t in fit.terms if not t.fixed]
         tot = None
         for t in terms:
