@@ -8,8 +8,9 @@ simulation, plotting and statistics are imported inside the run functions, so `s
 without pybullet, matplotlib or scipy, and a command whose extra is not installed says which one to
 install (exit 2). A subparser may name its extra with `set_defaults(extra="sim")`.
 
-Exit codes: 0 done, 1 the run failed (a fall, a motor that did not answer) or an internal error (a bug:
-"internal error", traceback in a log file, see `errors`), 2 bad input (one line naming it), 130 Ctrl-C.
+Exit codes: 0 done, 1 the run failed (a fall, a motor that did not answer), the disk is full (one line) or an
+internal error (a bug: "internal error", traceback in a log file, see `errors`), 2 bad input (one line
+naming it), 130 Ctrl-C.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import logging
 import os
 import sys
 
-from sparc_quad.cli.errors import BadInput, internal_error
+from sparc_quad.cli.errors import BadInput, disk_full, internal_error, report_disk_full
 from sparc_quad.cli.parser import Parser
 
 # modules under sparc_quad/cli, one per command (`gap` has subcommands run|synth|import)
@@ -102,6 +103,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sparc-quad {name}: {msg}", file=sys.stderr)
         return 2
     except Exception as exc:
+        full = disk_full(exc)
+        if full is not None:
+            return report_disk_full(name, exc, full, args)
         return internal_error(name, exc, args, args.verbose > 0)
     finally:
         _end_process_requests()

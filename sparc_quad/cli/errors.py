@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import errno
 import os
 import sys
 import tempfile
@@ -30,6 +31,36 @@ def bad_input(*types: type[BaseException], prefix: str = "") -> Iterator[None]:
         yield
     except types as exc:
         raise BadInput(f"{prefix}{exc}") from exc
+
+
+DISK_FULL = (errno.ENOSPC, errno.EDQUOT)  # the file system (or the user's quota) has no room left
+
+
+def disk_full(exc: BaseException) -> OSError | None:
+    """The OSError saying the disk is full behind `exc` (itself, or what it was raised from or during),
+    else None. A full disk is neither bad input nor a bug: one line naming it, exit 1 (`report_disk_full`)."""
+    seen: set[int] = set()
+    todo: list[BaseException | None] = [exc]
+    while todo:
+        e = todo.pop()
+        if e is None or id(e) in seen:
+            continue
+        seen.add(id(e))
+        if isinstance(e, OSError) and e.errno in DISK_FULL:
+            return e
+        todo += [e.__cause__, e.__context__]
+    return None
+
+
+def report_disk_full(command: str, exc: BaseException, full: OSError, args: object) -> int:
+    """One line: what the file system said, where (the file, else the command's --out) and what was kept;
+    exit 1. `cli.output.atomic_dir` marks the exception with the folder it left as it was."""
+    kept = getattr(exc, "left_unchanged", None)
+    where = kept or full.filename or getattr(args, "out", None)
+    who = " ".join(filter(None, ("sparc-quad", command)))
+    print(f"{who}: error: {full.strerror or full}{f' writing {where}' if where else ''}"
+          f"{' (left as it was: the partial outputs were removed)' if kept else ''}", file=sys.stderr)
+    return 1
 
 
 def log_dir(args: object) -> Path:

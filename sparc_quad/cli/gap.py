@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from sparc_quad.cli.args import SIM_DURATION_MAX_S, existing_file, in_range, output_dir, seed
 from sparc_quad.cli.errors import BadInput, bad_input
@@ -27,7 +28,9 @@ ACTIONS = ("run", "synth", "import")
 
 def legacy_argv(argv: list[str]) -> list[str]:
     """The earlier spellings, still accepted: `gap TRIAL...` is `gap run TRIAL...`, `gap synth-arm` is
-    `gap synth --arm` (a note on stderr says so)."""
+    `gap synth --arm` (a note on stderr says so). A word close to an action that is no file (`gap synthh`)
+    is left for the parser, which says "did you mean synth" (it is no trial: "synthh: file not found")."""
+    import difflib
     import sys
 
     i = next((k for k, a in enumerate(argv) if not a.startswith("-")), None)
@@ -36,10 +39,11 @@ def legacy_argv(argv: list[str]) -> list[str]:
     word = argv[i + 1]
     if word == "synth-arm":
         new = [*argv[:i + 1], "synth", "--arm", *argv[i + 2:]]
-    elif word not in ACTIONS:
-        new = [*argv[:i + 1], "run", *argv[i + 1:]]
-    else:
+    elif word in ACTIONS or (difflib.get_close_matches(word, ACTIONS, n=1, cutoff=0.75)
+                             and not Path(word).exists()):
         return argv
+    else:
+        new = [*argv[:i + 1], "run", *argv[i + 1:]]
     print(f"sparc-quad gap: note: `gap {word} ...` is now `{' '.join(new[i:i + 3])} ...`", file=sys.stderr)
     return new
 

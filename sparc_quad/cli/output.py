@@ -4,11 +4,11 @@ in `--out`, in place of or mixed with the previous one.
 A command writes into a temporary sibling of its `--out` folder (same parent, so relative paths written
 inside stay valid and every rename stays on one file system). When the command completes, each file it
 wrote is renamed into `--out` (os.replace: a reader sees the old file or the new one, never half of one)
-with SIGINT and SIGTERM held back, so an interrupt cannot split the set. On an interrupt or bad input
-(`errors.BadInput`) the sibling is removed and `--out` is left as it was; on any other exception (a bug) it
-is kept, renamed `<out>.partial-<time>`, for diagnosis, and `--out` is still left as it was. Files in
-`--out` that the command does not write (another program's logs, another experiment's results) are left
-alone: `--out` is not swapped as a whole, so a process still writing into it loses nothing.
+with SIGINT and SIGTERM held back, so an interrupt cannot split the set. On an interrupt, bad input
+(`errors.BadInput`) or a full disk the sibling is removed and `--out` is left as it was; on any other
+exception (a bug) it is kept, renamed `<out>.partial-<time>`, for diagnosis, and `--out` is still left as
+it was. Files in `--out` that the command does not write (another program's logs, another experiment's
+results) are left alone: `--out` is not swapped as a whole, so a process still writing into it loses nothing.
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import signal
 from collections.abc import Iterator
 from pathlib import Path
 
-from sparc_quad.cli.errors import BadInput
+from sparc_quad.cli.errors import DISK_FULL as DISK_FULL_ERRNOS
+from sparc_quad.cli.errors import BadInput, disk_full
 
 _HELD = {signal.SIGINT, signal.SIGTERM}
 
@@ -79,12 +80,17 @@ def atomic_dir(out: Path) -> Iterator[Path]:
             else:
                 raise OSError(f"no free temporary name beside {out}")
         except OSError as exc:
+            if exc.errno in DISK_FULL_ERRNOS:  # not bad input: the same path works once there is room
+                exc.left_unchanged = out  # type: ignore[attr-defined]
+                raise
             raise BadInput(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
         signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)  # a held interrupt is raised here, inside
         yield tmp
         _commit(tmp, out)
     except Exception as exc:
-        if tmp is not None and tmp.exists() and not isinstance(exc, BadInput):
+        if disk_full(exc) is not None:  # half-written files on a full disk: removed below, not kept
+            exc.left_unchanged = out  # type: ignore[attr-defined]
+        elif tmp is not None and tmp.exists() and not isinstance(exc, BadInput):
             exc.partial_outputs = _keep(tmp, out)  # type: ignore[attr-defined]
         raise
     finally:

@@ -85,10 +85,35 @@ class Parser(argparse.ArgumentParser):
         return super().add_subparsers(**kwargs)
 
     def parse_known_args(self, args: Sequence[str] | None = None, namespace=None):  # type: ignore[override]
+        if self.is_sub and self._subparsers is None and args is not None:
+            unknown = self.unknown_options(args)
+            if unknown:  # before any value is converted: `--workrs 2 spec.toml` is about --workrs, not "2"
+                self.error(f"unrecognized arguments: {' '.join(unknown)}")
         ns, extras = super().parse_known_args(args, namespace)
         if self.is_sub and extras:
             self.error(f"unrecognized arguments: {' '.join(extras)}")
         return ns, extras
+
+    def unknown_options(self, args: Sequence[str]) -> list[str]:
+        """The words of `args` that argparse would take for options this parser does not have (it would
+        refuse them too, but only after converting the values around them, whose error then comes first):
+        a word starting with '-' that is not a negative number, not `--`-separated, has no space, and is
+        neither one of the options (before any '=') nor the start of a long option (argparse judges those)."""
+        known = list(self._option_string_actions)
+        out = []
+        for word in args:
+            if word == "--":
+                break
+            if not word.startswith("-") or len(word) < 2 or " " in word or \
+                    self._negative_number_matcher.match(word):
+                continue
+            name = word.split("=", 1)[0]
+            if name in known or (not name.startswith("--") and name[:2] in known):  # -v, -vv, -ofile
+                continue
+            if name.startswith("--") and any(o.startswith(name) for o in known):  # an abbreviation
+                continue
+            out.append(word)
+        return out
 
     def error(self, message: str):  # type: ignore[override]
         """The error first, with a "did you mean" for a near miss, then one short usage line (argparse

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
-from sparc_quad.limits import SEED_MAX, SIM_DURATION_MAX_S
+from sparc_quad.limits import SEED_MAX, SIM_DURATION_MAX_S, SIM_DURATION_MIN_S
 from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES
 from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
 from sparc_quad.sim.quadruped_world import BASE_MOTIONS
@@ -131,8 +131,8 @@ class Scenario:
     seed: int = _key(0, int, "seed of every random number of the run: the estimator's noise and the "
                      "replicate's perturbation of start phase, initial pitch and speed, friction and mass "
                      "(sparc_quad/sim/seed_variation.py; 0 is the nominal robot)", lo=0, hi=SEED_MAX)
-    duration: float = _key(10.0, float, "simulated time (the 1 kHz log is kept in memory)", "s", lo=0.0,
-                           hi=DURATION_MAX_S, lo_open=True)
+    duration: float = _key(10.0, float, "simulated time (the 1 kHz log is kept in memory)", "s",
+                           lo=SIM_DURATION_MIN_S, hi=DURATION_MAX_S)
     settle: float = _key(1.0, float, "the judged window starts this long after the gait's start-up (stand, "
                          "speed ramp, the authors' spine switch), and at half the run at the latest", "s",
                          lo=0.0, hi=DURATION_MAX_S)

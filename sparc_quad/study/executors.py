@@ -184,16 +184,21 @@ def _connect(client_class, address: str, timeout_s: float):
 def run_dask(
     jobs: list[tuple[dict, str, str]], address: str, connect_timeout_s: float = 30.0
 ) -> Iterator[dict]:
-    """Submit `jobs` to the Dask scheduler at `address`; yield records as they finish."""
+    """Submit `jobs` to the Dask scheduler at `address`; yield records as they finish. Connects at the call
+    (not at the first record): a scheduler that cannot be reached is known before the study writes
+    anything."""
     try:
         from dask.distributed import Client, as_completed
     except ImportError:
         raise ExecutorUnavailable(
             "--scheduler needs Dask distributed: pip install 'sparc-quad[study]'"
         ) from None
-    client = _connect(Client, address, connect_timeout_s)
+    return _dask_records(_connect(Client, address, connect_timeout_s), as_completed, jobs)
+
+
+def _dask_records(client, as_completed, jobs: list[tuple[dict, str, str]]) -> Iterator[dict]:
+    futures: dict = {}
     try:
-        futures = {}
         for cfg, version, h in jobs:
             fut = client.submit(execute, cfg, version, h, key=f"sparc-trial-{h}", pure=False)
             futures[fut] = (cfg, version, h)

@@ -64,15 +64,9 @@ def run_study(
     consistent with the records on disk (also after Ctrl-C, which re-raises KeyboardInterrupt)."""
     out = Path(out)
     trials_dir = out / "trials"
-    trials_dir.mkdir(parents=True, exist_ok=True)
     version = code_version()
     planned = plan(spec, version)
     summary = RunSummary(trials=len(planned), hashes=[h for _, h in planned])
-    if spec.source:
-        try:
-            atomic_write_text(out / "spec.toml", Path(spec.source).read_text())
-        except OSError:
-            pass
     records: dict[str, dict] = {}
     todo: list[tuple[dict, str, str]] = []
     for cfg, h in planned:
@@ -92,6 +86,13 @@ def run_study(
     else:
         n = workers or executors.default_workers()
         stream = executors.run_local(todo, max(1, min(n, len(todo))))
+    # the executor is ready (a scheduler reached): only now is anything written
+    trials_dir.mkdir(parents=True, exist_ok=True)
+    if spec.source:
+        try:
+            atomic_write_text(out / "spec.toml", Path(spec.source).read_text())
+        except OSError:
+            pass
     bar = None
     if progress and todo:
         from tqdm import tqdm

@@ -102,3 +102,40 @@ def test_ctrl_c_while_building_the_parser_in_process(monkeypatch, capsys):
     monkeypatch.setattr(cli.importlib, "import_module", interrupted)
     assert cli.main(["bound", "--help"]) == 130
     assert capsys.readouterr().err.strip() == "sparc-quad: interrupted"
+
+
+def test_a_full_disk_is_one_line_exit_1_and_nothing_kept(tmp_path, monkeypatch, capsys):
+    """A full disk behind whatever the writer raised (here a ValueError raised while handling ENOSPC) is
+    neither bad input nor a bug: exit 1, one line naming it and --out, the half-written outputs removed."""
+    import errno
+    import os
+
+    from sparc_quad.experiments import static
+
+    def write_full(rows, raw, cfg, out):
+        (Path(out) / "static.json").write_text("{half")
+        try:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        except OSError:
+            raise ValueError("the writer gave up") from None  # the disk-full error stays its __context__
+
+    monkeypatch.setattr(static, "run_static", lambda cfg, progress=None: ([], {}))
+    monkeypatch.setattr(static, "write_static", write_full)
+    out = tmp_path / "o"
+    assert main(["bench", "static", "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    line = err.splitlines()[-1]  # after the progress bar
+    assert line.startswith("sparc-quad bench static: error: No space left on device") and str(out) in line
+    assert "internal error" not in err and "Traceback" not in err and err.count("error") == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no partial folder, no log, no --out
+
+
+def test_unknown_options_are_named_before_values_are_read():
+    from sparc_quad.cli.parser import Parser
+
+    p = Parser(prog="x").add_subparsers(dest="c").add_parser("run")
+    p.add_argument("spec", type=int)
+    p.add_argument("--workers", type=int)
+    p.add_argument("-v", action="count")
+    assert p.unknown_options(["--workrs", "2", "-5", "--work", "--workers=3", "-vv", "--", "--x"]) == \
+        ["--workrs"]
