@@ -132,14 +132,13 @@ def _body_x(r: tuple[float, ...], v: tuple[float, float, float]) -> float:
 class AuthorsRaibertController(Gait):
     """Leg torques of gait C: `step(t)` -> {leg: (0, tau_hip, tau_knee)} N*m once per physics step."""
 
-    def __init__(self, world, params: AuthorsRaibertParams | None = None, backend: str = "python"):
+    def __init__(self, world, params: AuthorsRaibertParams | None = None):
         self.p = p = params or AuthorsRaibertParams()
         legs = world.meta["legs"]
         if any(legs[k]["haa"] is not None for k in LEGS):
             raise ValueError("gait C is the spined dog's: its legs have no abduction joint")
         p.validate(min(legs[k]["thigh_m"] + legs[k]["shank_m"] for k in LEGS))
         self.w = world
-        self.backend = "python"
         self.tau_limit = world.leg_torque_limit_nm
         self.clock = ControlClock(p.control_period_s, world.cfg.dt_s)
         self._slots = tuple(world.leg_joint_slots(k)[1:] for k in LEGS)
@@ -164,7 +163,6 @@ class AuthorsRaibertController(Gait):
         self.x_liftoff = [0.0] * 4
         self.x_touchdown = [0.0] * 4
         self.in_swing = [False] * 4
-        self.saturated_calls = 0  # calls where a leg torque hit the motor limit
 
     # ---- Gait protocol ---------------------------------------------------------------------------------
     def phase(self, t: float) -> float:
@@ -233,7 +231,6 @@ class AuthorsRaibertController(Gait):
         self.yaw_integral = max(-0.5, min(0.5, self.yaw_integral + yaw_error * dt))
         fx_yaw = p.kp_yaw * yaw_error + p.ki_yaw * self.yaw_integral
         jq, jdq, lim = w.jq, w.jdq, self.tau_limit
-        saturated = False
         t_stance = 0.5 / p.frequency_hz
         for i, key in enumerate(LEGS):
             front, left = i >= 2, i % 2 == 0
@@ -280,10 +277,7 @@ class AuthorsRaibertController(Gait):
                 # tau = J^T F, J = [[-l1 s1 - l2 s12, -l2 s12], [l1 c1 + l2 c12, l2 c12]]
                 tau1 = (-l1 * s1 - l2 * s12) * fx + (l1 * c1 + l2 * c12) * fz
                 tau2 = -l2 * s12 * fx + l2 * c12 * fz
-            if abs(tau1) > lim or abs(tau2) > lim:
-                saturated = True
             self.out[key] = (0.0, max(-lim, min(lim, tau1)), max(-lim, min(lim, tau2)))
-        self.saturated_calls += saturated
         self.stance_flags["hind"] = math.sin(phase % TWO_PI) <= 0.0
         self.stance_flags["front"] = math.sin((phase + math.pi) % TWO_PI) <= 0.0
 

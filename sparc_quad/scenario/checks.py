@@ -7,6 +7,7 @@ import json
 import math
 
 from sparc_quad.gaits.bound import BoundParams
+from sparc_quad.gaits.sine_bound import SineBoundParams
 from sparc_quad.scenario.model import ScenarioError
 from sparc_quad.sim.engines import engine_error, world_class
 from sparc_quad.sim.hosts import host_files
@@ -22,10 +23,12 @@ def check_runnable(cfg) -> None:
     reach = min(leg["thigh_m"] + leg["shank_m"] for leg in legs)
     gait = cfg.gait
     if not isinstance(gait, BoundParams):
+        sine = isinstance(gait, SineBoundParams)
         try:
             gait.validate(reach)
         except ValueError as exc:
-            raise ScenarioError("step_length", f"gait sine: {exc}") from None
+            raise ScenarioError("step_length" if sine else "gait",
+                                f"gait {'sine' if sine else 'authors-raibert'}: {exc}") from None
     elif reach > gait.height_m:
         sweep_max = 2.0 * math.sqrt(reach**2 - gait.height_m**2)  # foot travel under the hip in one stance
         duty = gait.duty_at(gait.speed_m_s)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from sparc_quad.limits import SEED_MAX, SIM_DURATION_MAX_S, SIM_DURATION_MIN_S
+from sparc_quad.sim import spined_dog
 from sparc_quad.sim.engines import DEFAULT_ENGINE, ENGINES
 from sparc_quad.sim.hosts import DEFAULT_HOST, HOSTS
 from sparc_quad.sim.quadruped_world import BASE_MOTIONS
@@ -292,7 +293,7 @@ def check_applicable(s: Scenario) -> None:
             raise ScenarioError("host_file", f"names the host itself: leave host out (got host {s.host!r})")
         if not s.host_file.endswith(".toml"):
             raise ScenarioError("host_file", f"expected a host.toml path, got {s.host_file!r}")
-    if s.gait == "authors-raibert" and (s.host != "spined-dog" or s.host_file is not None):
+    if s.gait == "authors-raibert" and (s.host != spined_dog.HOST or s.host_file is not None):
         raise ScenarioError("gait", "authors-raibert is the SPARC authors' controller for their spined dog "
                                     "(its legs, frames and gains): use host spined-dog")
     if s.speed is not None and s.stride is not None:

@@ -109,7 +109,26 @@ def bound_config(s: Scenario) -> BoundConfig:
     ScenarioError naming the key when its robot or engine cannot run it (`checks.check_runnable`)."""
     cfg = _bound_config(resolved(s))
     check_runnable(cfg)
+    if s.spine_path == "node":
+        _check_node_targets(cfg)
     return cfg
+
+
+def _check_node_targets(cfg: BoundConfig) -> None:
+    """The spine node accepts only targets its command message admits (the SPARC module's workspace,
+    spine_module.workspace): a run whose targets lie outside it would have the node refuse every command
+    and stay disabled, so it is refused here, naming spine_path."""
+    from spine_module.workspace import unreachable
+
+    sch = cfg.spine_schedule
+    if sch is None:
+        return
+    for x in {sch.x_d0_m, sch.x_d1_m}:
+        why = unreachable(x, sch.z_d_m, sch.theta_d_rad)
+        if why is not None:
+            raise ScenarioError("spine_path", f"node: the run's spine target ({x:g} m, {sch.z_d_m:g} m, "
+                                              f"{sch.theta_d_rad:g} rad) is {why} of the node's command "
+                                              "(the SPARC module's spine); use spine_path direct")
 
 
 def spine_of(s: Scenario, cfg: BoundConfig):
@@ -151,7 +170,6 @@ def _bound_config(r: Scenario) -> BoundConfig:
         params = replace(_GAIT_C, speed_m_s=r.speed, frequency_hz=r.frequency, step_height_m=r.step_height,
                          start_phase_rad=2 * math.pi * pert.start_phase_cycles,
                          start_spine_q_rad=LOCKED_SPINE_Q_RAD if locked else _GAIT_C.start_spine_q_rad)
-        params.validate()
         common.update(spine_params=A.spine_params(A.RAIBERT_EE_AHEAD_M), spine_torso_accel=False)
         target = A.raibert_target(spine.d) if r.spine != "rigid" else None
         return BoundConfig(gait=params, spine_schedule=target,

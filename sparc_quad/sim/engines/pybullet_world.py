@@ -221,22 +221,26 @@ class PybulletWorld(QuadWorld):
             else:
                 force[key] += cp[9]
 
+    def _robot_com(self, states) -> tuple[float, float, float]:
+        """The whole robot's centre of mass (world, m) from the base and `getLinkStates`' link COMs."""
+        mass = self._link_mass
+        bx, by, bz = pb.getBasePositionAndOrientation(self.robot, physicsClientId=self.client)[0]
+        cx, cy, cz = mass[0] * bx, mass[0] * by, mass[0] * bz
+        for k, st in enumerate(states, start=1):
+            px, py, pz = st[0]  # the link's COM
+            cx, cy, cz = cx + mass[k] * px, cy + mass[k] * py, cz + mass[k] * pz
+        total = self.total_mass
+        return cx / total, cy / total, cz / total
+
     def authors_twist(self) -> tuple[float, ...]:
         """`QuadWorld.authors_twist` of the present state (`cvel_lag_steps` 0: the estimator's delay makes it
         the previous step's, as MuJoCo's `cvel` is): the velocity of the point at the whole robot's centre of
         mass moving rigidly with the hind body, v_origin + w x (com - origin), and w, world axes."""
-        c, robot = self.client, self.robot
-        mass = self._link_mass
-        bx, by, bz = pb.getBasePositionAndOrientation(robot, physicsClientId=c)[0]  # the base's COM
-        cx, cy, cz = mass[0] * bx, mass[0] * by, mass[0] * bz
-        for k, st in enumerate(pb.getLinkStates(robot, self._links, computeForwardKinematics=1,
-                                                physicsClientId=c), start=1):
-            px, py, pz = st[0]  # the link's COM
-            mk = mass[k]
-            cx, cy, cz = cx + mk * px, cy + mk * py, cz + mk * pz
-        total = self.total_mass
+        states = pb.getLinkStates(self.robot, self._links, computeForwardKinematics=1,
+                                  physicsClientId=self.client)
+        cx, cy, cz = self._robot_com(states)
         ox, oy, oz = self.base_pos
-        rx, ry, rz = cx / total - ox, cy / total - oy, cz / total - oz
+        rx, ry, rz = cx - ox, cy - oy, cz - oz
         vx, vy, vz = self.base_vel
         wx, wy, wz = self.base_omega
         return (vx + wy * rz - wz * ry, vy + wz * rx - wx * rz, vz + wx * ry - wy * rx, wx, wy, wz)
@@ -245,22 +249,15 @@ class PybulletWorld(QuadWorld):
         """`QuadWorld.authors_body_states` of the present state (no lag: pybullet has no cvel), as MuJoCo
         defines its `cvel` linear part: v_com(link) + w x (com(robot) - com(link))."""
         c, robot = self.client, self.robot
-        mass = self._link_mass
-        bx, by, bz = pb.getBasePositionAndOrientation(robot, physicsClientId=c)[0]
-        cx, cy, cz = mass[0] * bx, mass[0] * by, mass[0] * bz
         states = pb.getLinkStates(robot, self._links, computeLinkVelocity=1, computeForwardKinematics=1,
                                   physicsClientId=c)
-        for k, st in enumerate(states, start=1):
-            px, py, pz = st[0]
-            cx, cy, cz = cx + mass[k] * px, cy + mass[k] * py, cz + mass[k] * pz
-        total = self.total_mass
-        com = (cx / total, cy / total, cz / total)
+        com = self._robot_com(states)
 
         def at_com(p, v, w):
             rx, ry, rz = com[0] - p[0], com[1] - p[1], com[2] - p[2]
             return (v[0] + w[1] * rz - w[2] * ry, v[1] + w[2] * rx - w[0] * rz, v[2] + w[0] * ry - w[1] * rx)
 
-        base_com = (bx, by, bz)
+        base_com = pb.getBasePositionAndOrientation(robot, physicsClientId=c)[0]
         lin, ang = pb.getBaseVelocity(robot, physicsClientId=c)
         front = states[self.spine_idx[-1]]
         front_rot = tuple(pb.getMatrixFromQuaternion(front[5]))

@@ -25,6 +25,7 @@ def _run(s: Scenario, **kw):
 
 
 def test_resolves_to_their_run():
+    """Their script's command, frequency, spine gains, later model and estimator are gait C's defaults."""
     r = resolved(Scenario(host="spined-dog", gait="authors-raibert"))
     assert (r.speed, r.frequency, r.step_height) == (1.3, 3.1, 0.08)
     assert (r.kx, r.kz, r.kth, r.dx, r.dz, r.dth) == (*A.RAIBERT_K, *A.RAIBERT_D)
@@ -41,6 +42,7 @@ def test_resolves_to_their_run():
 @pytest.mark.parametrize("bad, key", [({"host": "solo12"}, "gait"), ({"step_length": 0.08}, "step_length"),
                                       ({"duty": 0.5}, "duty"), ({"spine": "rigid", "kx": 800.0}, "kx")])
 def test_refuses_what_cannot_act(bad, key):
+    """Keys of other gaits or spines, other robots: refused naming the key."""
     with pytest.raises(ScenarioError) as err:
         Scenario(**{"host": "spined-dog", "gait": "authors-raibert", **bad})
     assert err.value.key == key
@@ -48,8 +50,8 @@ def test_refuses_what_cannot_act(bad, key):
 
 @pytest.mark.parametrize("engine, speed", [("mujoco", 0.9), ("pybullet", 0.5)])
 def test_bounds_forward_at_the_command(engine, speed):
-    """4 s at the command: no fall, forward over the window. (In pybullet their controller reverses after
-    about 4 s at 0.9 and 1.3 m/s with the joints' dry friction; MuJoCo tracks: docs/gait-c.md.)"""
+    """4 s at the command: no fall, forward over the window. pybullet runs at 0.5 m/s, where it tracks
+    (docs/bounding/authors-gait-c.md says where it does not)."""
     if engine == "pybullet":
         pytest.importorskip("pybullet")
     s = Scenario(host="spined-dog", gait="authors-raibert", engine=engine, speed=speed, duration=4.0)
@@ -77,3 +79,17 @@ def test_held_steps_bit_identical():
     assert held.metrics["held_steps"] > 0.3 * len(held.series)  # a call every 2 or 3 steps
     assert full.metrics["held_steps"] == 0
     assert held.series.tobytes() == full.series.tobytes()
+
+
+def test_node_path_refused_naming_it(capsys):
+    """Their target (x 0.367 m on their end effector) is outside the node's command workspace (the SPARC
+    module's spine): the node would refuse every command and stay disabled, so the run is refused first."""
+    from sparc_quad.cli import main
+
+    with pytest.raises(ScenarioError) as exc:
+        bound_config(Scenario(host="spined-dog", gait="authors-raibert", spine_path="node"))
+    assert exc.value.key == "spine_path"
+    assert main(["bound", "--host", "spined-dog", "--gait", "authors-raibert", "--spine-path", "node",
+                 "--out", "/nonexistent-never-written"]) == 2
+    err = capsys.readouterr().err
+    assert ("--spine-path" in err or "spine_path" in err) and "Traceback" not in err

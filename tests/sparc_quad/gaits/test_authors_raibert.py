@@ -76,8 +76,8 @@ def test_ik_out_of_reach_returns_their_reference():
 
 
 def test_stance_torque_is_jacobian_transpose_force():
-    """In stance (t just after a phase where every leg stands is impossible in a bound: take the hind legs
-    at phase in (pi, 2 pi)) tau = J^T F, J the derivative of the leg's own forward kinematics."""
+    """The hind legs in stance (gait phase in (pi, 2 pi)): tau = J^T F, J the derivative of the leg's own
+    forward kinematics, F inside their force clips."""
     p = AuthorsRaibertParams(speed_m_s=0.9, start_phase_rad=1.5 * math.pi)  # hind in stance at t ~ 0
     q = {k: (NOMINAL_Q[i][0] + 0.1, NOMINAL_Q[i][1] - 0.2) for i, k in enumerate(LEGS)}
     g = AuthorsRaibertController(FakeWorld(q), p)
