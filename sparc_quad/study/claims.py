@@ -92,7 +92,12 @@ def _g(x) -> str:
 
 
 def _robot(cfg: dict) -> tuple:
-    return (cfg.get("host", DEFAULT_HOST), cfg.get("engine", DEFAULT_ENGINE), cfg.get("gait"))
+    """(host, engine, gait); a matched-speed study's gait is named apart: its cells are compared at one
+    achieved speed, a commanded study's at one command."""
+    gait = cfg.get("gait")
+    if "match_speed" in cfg:
+        gait = f"{gait} (speed matched by {cfg.get('match_by', 'speed')})"
+    return (cfg.get("host", DEFAULT_HOST), cfg.get("engine", DEFAULT_ENGINE), gait)
 
 
 def _family(cfg: dict, drop: tuple[str, ...]) -> tuple:
@@ -166,6 +171,9 @@ def _best_k_rule(analysis, panel, spine, k_range, claim, base) -> dict:
 
 def _c2(analysis, ref, family_panels, spine, base) -> dict:
     L_ref = ref["config"].get("step_length")
+    if ref["config"].get("match_by") == "step_length":
+        return {**base, "claim": "C2", "verdict": "not tested",
+                "finding": "L is calibrated per cell to match the speed, not a factor"}
     if L_ref is None:
         return {
             **base,
@@ -482,11 +490,11 @@ def evaluate(analysis: dict) -> list[dict]:
             else:
                 fam = _family(ref["config"], ("step_length",))
                 family = [p for p in flat if _family(p["config"], ("step_length",)) == fam]
-                speed_fam = _family(ref["config"], ("speed", "step_length", "frequency"))
+                speed_fam = _family(ref["config"], ("speed", "match_speed", "step_length", "frequency"))
                 lows = [
                     p
                     for p in flat
-                    if _family(p["config"], ("speed", "step_length", "frequency")) == speed_fam
+                    if _family(p["config"], ("speed", "match_speed", "step_length", "frequency")) == speed_fam
                     and p.get("target_speed_m_s") is not None
                     and p["target_speed_m_s"] < ref["target_speed_m_s"] - LOW_SPEED_GAP_M_S
                 ]

@@ -24,13 +24,19 @@ class ExecutorUnavailable(RuntimeError):
     """The requested executor cannot be used here (missing extra, unreachable scheduler)."""
 
 
-def trial_function():
-    """The study's trial function (sparc_quad.study.trial.run_trial)."""
-    return importlib.import_module("sparc_quad.study.trial").run_trial
+TRIAL = "sparc_quad.study.trial:run_trial"  # a study's job: one trial
+CALIBRATION = "sparc_quad.study.speed_match:calibrate"  # a matched-speed cell's calibration
 
 
-def execute(config: dict, version: str, trial_hash: str) -> dict:
-    """Run one trial and return its record (status ok | failed); never raises for the trial's errors."""
+def trial_function(name: str = TRIAL):
+    """The job function `module:attr` (the study's trial function by default)."""
+    module, attr = name.split(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def execute(config: dict, version: str, trial_hash: str, function: str = TRIAL) -> dict:
+    """Run one job (a trial, or a cell's calibration) and return its record (status ok | failed); never
+    raises for the job's errors."""
     from sparc_quad.study.records import code_version
 
     t0 = time.perf_counter()
@@ -45,12 +51,14 @@ def execute(config: dict, version: str, trial_hash: str) -> dict:
     try:
         if local != version:
             raise RuntimeError(f"worker code version {local} differs from the study's {version}")
-        fn = trial_function()
+        fn = trial_function(function)
         rec["trial_function"] = f"{fn.__module__}.{fn.__qualname__}"
         metrics = fn(dict(config))
         if not isinstance(metrics, dict):
             raise TypeError(f"trial function returned {type(metrics).__name__}, not a dict")
         rec.update(status="ok", error=None, metrics=metrics)
+        if function != TRIAL:
+            return rec
         scenario = importlib.import_module("sparc_quad.study.trial").record_scenario(config, metrics)
         if scenario is not None:  # what `sparc-quad bound --scenario <record>` runs again
             rec["scenario"] = scenario
@@ -114,7 +122,7 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
         proc.join(timeout=5.0)
 
 
-def run_local(jobs: list[tuple[dict, str, str]], workers: int) -> Iterator[dict]:
+def run_local(jobs: list[tuple[dict, str, str]], workers: int, function: str = TRIAL) -> Iterator[dict]:
     """Run `jobs` (config, version, hash) on `workers` spawned processes; yield records as they finish.
 
     At most IN_FLIGHT_PER_WORKER x workers trials are submitted at a time and the wait is a short poll: a
@@ -133,7 +141,7 @@ def run_local(jobs: list[tuple[dict, str, str]], workers: int) -> Iterator[dict]
                 job = next(queue, None)
                 if job is None:
                     break
-                pending[pool.submit(execute, *job)] = job
+                pending[pool.submit(execute, *job, function)] = job
             if not pending:
                 break
             done, _ = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
@@ -152,10 +160,10 @@ def run_local(jobs: list[tuple[dict, str, str]], workers: int) -> Iterator[dict]
     pool.shutdown(wait=True)
 
 
-def run_inline(jobs: list[tuple[dict, str, str]]) -> Iterator[dict]:
+def run_inline(jobs: list[tuple[dict, str, str]], function: str = TRIAL) -> Iterator[dict]:
     """Run `jobs` one after another in this process (debugging, tests)."""
     for job in jobs:
-        yield execute(*job)
+        yield execute(*job, function)
 
 
 def _connect(client_class, address: str, timeout_s: float):
@@ -182,7 +190,7 @@ def _connect(client_class, address: str, timeout_s: float):
 
 
 def run_dask(
-    jobs: list[tuple[dict, str, str]], address: str, connect_timeout_s: float = 30.0
+    jobs: list[tuple[dict, str, str]], address: str, connect_timeout_s: float = 30.0, function: str = TRIAL
 ) -> Iterator[dict]:
     """Submit `jobs` to the Dask scheduler at `address`; yield records as they finish. Connects at the call
     (not at the first record): a scheduler that cannot be reached is known before the study writes
@@ -193,14 +201,15 @@ def run_dask(
         raise ExecutorUnavailable(
             "--scheduler needs Dask distributed: pip install 'sparc-quad[study]'"
         ) from None
-    return _dask_records(_connect(Client, address, connect_timeout_s), as_completed, jobs)
+    return _dask_records(_connect(Client, address, connect_timeout_s), as_completed, jobs, function)
 
 
-def _dask_records(client, as_completed, jobs: list[tuple[dict, str, str]]) -> Iterator[dict]:
+def _dask_records(client, as_completed, jobs: list[tuple[dict, str, str]], function: str = TRIAL
+                  ) -> Iterator[dict]:
     futures: dict = {}
     try:
         for cfg, version, h in jobs:
-            fut = client.submit(execute, cfg, version, h, key=f"sparc-trial-{h}", pure=False)
+            fut = client.submit(execute, cfg, version, h, function, key=f"sparc-job-{h}", pure=False)
             futures[fut] = (cfg, version, h)
         for fut in as_completed(list(futures)):
             cfg, version, h = futures.pop(fut)

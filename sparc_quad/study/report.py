@@ -56,6 +56,7 @@ if not set(METRICS + EXTRA) <= set(TABLE):
 SPEED_TOLERANCE_M_S = 0.05  # emergent speed (gait A): the band about the panel's target
 # a commanded speed: a cell that misses its command by more than this is not judged
 COMMANDED_SPEED_TOLERANCE_M_S = 0.03
+MATCHED = "matched: the cell's input calibrated to run it (speed_match)"
 
 
 class ReportError(ValueError):
@@ -188,9 +189,11 @@ def panel_name(key: tuple, varied: set[str]) -> str:
     parts = [str(d.get("gait", ""))]
     if "speed" in d:
         parts.append(f"{d['speed']:g}mps")
+    if "match_speed" in d:
+        parts.append(f"matched{d['match_speed']:g}mps")
     if "slope" in d:
         parts.append(f"slope{d['slope']:g}")
-    parts += [f"{k}{v}" for k, v in key if k in varied and k not in ("gait", "speed", "slope")]
+    parts += [f"{k}{v}" for k, v in key if k in varied and k not in ("gait", "speed", "slope", "match_speed")]
     return re.sub(r"[^A-Za-z0-9_.+-]", "_", "_".join(parts))
 
 
@@ -221,7 +224,10 @@ def _baseline_for(spine: str, present: set[str]) -> str | None:
 
 def panel_target(config: dict, base_speed: float | None) -> tuple[float | None, str]:
     """The speed a panel's cells are judged at, and where it comes from: the commanded speed, or for the
-    sine gait (speed emergent) the spec's `speeds` label, else the locked baseline's mean speed."""
+    sine gait (speed emergent) the spec's `speeds` label, else the locked baseline's mean speed; a
+    matched-speed study's target (`match_speed`), which every cell was calibrated to run."""
+    if isinstance(config.get("match_speed"), int | float):  # the input calibrated per cell (speed_match)
+        return float(config["match_speed"]), MATCHED
     if isinstance(config.get("speed"), int | float):
         how = "commanded" if config.get("gait") != "sine" else "the spec's target (speed emergent)"
         return float(config["speed"]), how
@@ -272,6 +278,10 @@ def analyse(trials: list[Trial], n_boot: int = 400) -> dict:
             extras = _extras(ts)
             if gains:
                 extras["other_gains"] = json.dumps(dict(gains))
+            calibrated = [t.metrics["match_value"] for t in ts if t.ok and "match_value" in t.metrics]
+            if calibrated:  # the cell's calibrated input (one value per cell) and whether it met the target
+                extras["match_value"] = float(calibrated[0])
+                extras["match_converged"] = all(t.metrics.get("match_converged") for t in ts if t.ok)
             base = _baseline_for(spine, standing)
             extras["base_speed_m_s"] = _extras(base_trials[base])["speed_m_s"] if base else None
             for m in metrics:
@@ -298,7 +308,8 @@ def analyse(trials: list[Trial], n_boot: int = 400) -> dict:
                         seeds,
                         base,
                         target,
-                        COMMANDED_SPEED_TOLERANCE_M_S if source == "commanded" else SPEED_TOLERANCE_M_S,
+                        COMMANDED_SPEED_TOLERANCE_M_S if source in ("commanded", MATCHED)
+                        else SPEED_TOLERANCE_M_S,
                     )
                 )
     return {"panels": panels, "metrics": metrics, "cells": cells, "optima": optima(cells, n_boot)}

@@ -1,6 +1,8 @@
 """Run a study: expand the spec, skip trials whose record exists, execute the rest, write the tables.
 
 DIR/trials/<hash>.json  one record per trial (config, code version, status, error, metrics, strides)
+DIR/calibrations/<hash>.json  one per matched-speed cell (`speed_match`): run before the cell's trials,
+                        each of which then runs at the calibrated input (its record says which)
 DIR/trials.csv          one row per trial of this spec (config columns, fell, every scalar metric)
 DIR/summary.json        counts (trials, executed, cached, failed) and the hashes of this spec's trials
 DIR/spec.toml           the spec that was run
@@ -44,6 +46,7 @@ class RunSummary:
     interrupted: bool = False
     wall_s: float = 0.0
     hashes: list[str] = field(default_factory=list)
+    calibrations: int = 0  # matched-speed cells calibrated by this run (speed_match)
 
 
 def plan(spec: Spec, version: str | None = None) -> list[tuple[dict, str]]:
@@ -77,16 +80,23 @@ def run_study(
         else:
             todo.append((cfg, version, h))
     t0 = time.perf_counter()
-    if not todo:
-        stream = iter(())
-    elif scheduler:
-        stream = executors.run_dask(todo, scheduler, connect_timeout_s=scheduler_timeout_s)
-    elif workers == 0:
-        stream = executors.run_inline(todo)
-    else:
+
+    def stream_of(jobs: list, function: str = executors.TRIAL):
+        if not jobs:
+            return iter(())
+        if scheduler:
+            return executors.run_dask(jobs, scheduler, connect_timeout_s=scheduler_timeout_s,
+                                      function=function)
+        if workers == 0:
+            return executors.run_inline(jobs, function)
         n = workers or executors.default_workers()
-        stream = executors.run_local(todo, max(1, min(n, len(todo))))
+        return executors.run_local(jobs, max(1, min(n, len(jobs))), function)
+
+    cells = _cells_to_calibrate(todo, out / "calibrations", version)
+    summary.calibrations = len(cells["todo"])
     # the executor is ready (a scheduler reached): only now is anything written
+    first = stream_of(cells["todo"], executors.CALIBRATION) if cells["todo"] else None
+    stream = stream_of([_with_calibration(job, cells) for job in todo]) if first is None else None
     trials_dir.mkdir(parents=True, exist_ok=True)
     if spec.source:
         try:
@@ -94,12 +104,16 @@ def run_study(
         except OSError:
             pass
     bar = None
-    if progress and todo:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(todo), unit="trial", desc=spec.name, mininterval=2.0, smoothing=0.1)
     try:
+        if first is not None:
+            _calibrate(first, cells, out / "calibrations", spec.name, progress)
+            stream = stream_of([_with_calibration(job, cells) for job in todo])
+        if progress and todo:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(todo), unit="trial", desc=spec.name, mininterval=2.0, smoothing=0.1)
         for rec in stream:
+            rec["config"] = {k: v for k, v in rec["config"].items() if k != "matched"}
             try:
                 write_record(trials_dir, rec)
             except OSError as exc:
@@ -141,6 +155,72 @@ def run_study(
     return summary
 
 
+def _cells_to_calibrate(todo: list, folder: Path, version: str) -> dict:
+    """The matched-speed cells among the trials to run: their calibration records found in `folder`
+    (`done`: cell hash -> result) and the calibrations still to run (`todo`: jobs)."""
+    from sparc_quad.study.speed_match import cell_config, is_matched
+
+    done: dict[str, dict] = {}
+    jobs: dict[str, tuple] = {}
+    of_trial: dict[str, str] = {}
+    for cfg, _, h in todo:
+        if not is_matched(cfg) or cfg.get("matched") is not None:
+            continue
+        cell = cell_config(cfg)
+        ch = trial_hash(cell, version)
+        of_trial[h] = ch
+        if ch in done or ch in jobs:
+            continue
+        rec = read_record(folder / f"{ch}.json")
+        if rec is not None and rec["status"] == "ok":
+            done[ch] = rec["metrics"]
+        else:
+            jobs[ch] = (cell, version, ch)
+    return {"done": done, "todo": list(jobs.values()), "of_trial": of_trial, "failed": {}}
+
+
+def _calibrate(stream, cells: dict, folder: Path, name: str, progress: bool) -> None:
+    """Run the cells' calibrations, writing each record as it comes."""
+    folder.mkdir(parents=True, exist_ok=True)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(cells["todo"]), unit="cell", desc=f"{name}: calibrating speed", mininterval=2.0)
+    try:
+        for rec in stream:
+            try:
+                write_record(folder, rec)
+            except OSError as exc:
+                raise StudyWriteError(exc.errno, f"cannot write a record in {folder} "
+                                                 f"({exc.strerror or exc})") from None
+            if rec["status"] == "ok":
+                cells["done"][rec["hash"]] = rec["metrics"]
+            else:
+                cells["failed"][rec["hash"]] = rec.get("error")
+                log.warning("calibration %s failed: %s", rec["hash"], rec.get("error"))
+            if bar is not None:
+                bar.update(1)
+    finally:
+        close = getattr(stream, "close", None)
+        if close is not None:
+            close()
+        if bar is not None:
+            bar.close()
+
+
+def _with_calibration(job: tuple, cells: dict) -> tuple:
+    """A trial job with its cell's calibration passed in (`matched`); a failed calibration is passed as
+    such and the trial fails naming it."""
+    cfg, version, h = job
+    ch = cells["of_trial"].get(h)
+    if ch is None:
+        return job
+    if ch in cells["done"]:
+        return {**cfg, "matched": cells["done"][ch]}, version, h
+    return {**cfg, "matched": {"failed": cells["failed"].get(ch, "not run")}}, version, h
+
+
 def finish(
     out: Path, spec: Spec, version: str, s: RunSummary, records: list[dict], workers, scheduler
 ) -> None:
@@ -156,6 +236,7 @@ def finish(
         "cached": s.cached,
         "failed": s.failed,
         "failed_this_run": s.failed_now,
+        "calibrations_run": s.calibrations,
         "interrupted": s.interrupted,
         "wall_s": round(s.wall_s, 3),
         "trials_per_minute": round(60.0 * s.executed / s.wall_s, 3) if s.executed and s.wall_s > 0 else None,

@@ -11,7 +11,9 @@ A spec is TOML with three tables:
 A trial config is the base scenario with one cell's grid values on top (as a Hydra sweep overrides the
 config a single run uses), so a one-cell study runs what `sparc-quad bound` runs with the same keys.
 `gait = "raibert-opt"` (the Raibert bound tuned per cell by CMA-ES) adds the search keys of
-`sparc_quad.study.raibert_opt`. A cell leaves out the keys that do not act on its spine (the gains of a
+`sparc_quad.study.raibert_opt`; `match_speed` (with `match_by`, ...) calibrates each cell's command,
+frequency or step length until it runs that speed (`sparc_quad.study.speed_match`). A cell leaves out the
+keys that do not act on its spine (the gains of a
 locked or rigid-impedance spine, the controller options of a passive one), so a grid over spines and gains
 runs each fixed spine once per remaining combination.
 """
@@ -28,6 +30,7 @@ from pathlib import Path
 from sparc_quad.scenario import KEYS, ScenarioError
 from sparc_quad.study.fixed_trial import GAITS
 from sparc_quad.study.raibert_opt import OPT_KEYS as SEARCH_KEYS
+from sparc_quad.study.speed_match import MATCH_KEYS
 
 # the spine's gain keys (stiffness N/m or N*m/rad, damping N*s/m or N*m*s/rad): a report's k, d axes
 SPINE_GAIN_KEYS = ("kx", "kz", "kth", "dx", "dz", "dth")
@@ -68,6 +71,16 @@ def _value(where: str, name: str, value):
         if value not in GAITS:
             raise SpecError(f"{where}: {value!r} is not one of {', '.join(GAITS)}")
         return value
+    if name == "match_by":
+        if not isinstance(value, str):
+            raise SpecError(f"{where}: expected a scenario key name, got {value!r}")
+        return value
+    if name in MATCH_KEYS:
+        if name == "matched":
+            raise SpecError(f"{where}: computed by the study (the calibration of each cell), not given")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise SpecError(f"{where}: expected a finite number, got {value!r}")
+        return float(value) if name in ("match_speed", "match_tolerance") else value
     if name in OPT_KEYS:
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
             raise SpecError(f"{where}: expected a finite number, got {value!r}")

@@ -1,0 +1,222 @@
+"""Speed matched by design: each study cell's gait input tuned until the cell runs the target speed.
+
+Why: comparing costs "at 0.9 m/s" needs every spine to run 0.9 m/s. Keeping only the cells that happen to
+land near it filters on an outcome the spine changes; a speed-commanded controller that misses its command
+(the authors' locked dog runs 0.83 m/s when told 0.9) leaves nothing to compare. Here the input that sets
+the speed is calibrated per cell, the way a bench sets a treadmill: the command of a speed-commanded gait
+(`match_by = "speed"`), or gait A's `frequency` or `step_length` with its adaptation off. The reported
+seeds then run at the calibrated value and are judged against the target like any commanded cell.
+
+Keys a trial config adds (`[scenario]` or `[grid]` of a spec):
+  match_speed       the target mean speed over the judged window, m/s (the panel's speed)
+  match_by          the scenario key tuned: speed | frequency | step_length
+  match_tolerance   calibration stops within this of the target, m/s (default 0.01)
+  match_seeds       calibration seeds, CALIBRATION_SEED0 .. + n - 1, disjoint from a study's reported
+                    seeds so the value reported is not tuned on the trials that judge it (default 3)
+  match_iterations  at most this many calibration points (default 6), each match_seeds trials long
+  matched           the calibration result (a study computes it once per cell and passes it on)
+
+The calibration: a point is the mean speed over the calibration seeds that stand (a point where more than
+half fall has no speed). From the start value (the command at the target for `speed`, else the gait's
+value), the next value scales by target / achieved (speed proportional to the input, step at most x1.6)
+until the target is bracketed, then interpolates inside the bracket. The result is the point nearest the
+target, with `converged` saying whether it is within the tolerance.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from sparc_quad.scenario import ScenarioError
+from sparc_quad.study.fixed_trial import check_config as check_fixed
+from sparc_quad.study.fixed_trial import run_fixed_trial, trial_scenario
+
+MATCH_KEYS = ("match_speed", "match_by", "match_tolerance", "match_seeds", "match_iterations", "matched")
+# the keys a calibration may tune and their search bounds (m/s, Hz, m)
+BY_BOUNDS = {"speed": (0.05, 3.0), "frequency": (1.0, 6.0), "step_length": (0.02, 0.2)}
+CALIBRATION_SEED0 = 1000
+DEFAULTS = {"match_by": "speed", "match_tolerance": 0.01, "match_seeds": 3, "match_iterations": 6}
+MAX_STEP_RATIO = 1.6  # one proportional step changes the input by at most this factor
+_CELL_SKIP = ("seed", "matched")
+
+
+def is_matched(config: dict) -> bool:
+    return isinstance(config, dict) and "match_speed" in config
+
+
+def _opt(config: dict, key: str):
+    return config.get(key, DEFAULTS.get(key))
+
+
+def base_of(config: dict) -> dict:
+    """The cell's scenario keys (the match keys taken off)."""
+    return {k: v for k, v in config.items() if k not in MATCH_KEYS}
+
+
+def check_match(config: dict) -> None:
+    """ValueError naming the first bad match key, or the scenario's own error."""
+    t = config.get("match_speed")
+    if isinstance(t, bool) or not isinstance(t, int | float) or not 0.0 < t <= 5.0:
+        raise ValueError(f"match_speed: a target speed in (0, 5] m/s, got {t!r}")
+    by = _opt(config, "match_by")
+    if by not in BY_BOUNDS:
+        raise ValueError(f"match_by: one of {', '.join(BY_BOUNDS)}, got {by!r}")
+    tol = _opt(config, "match_tolerance")
+    if isinstance(tol, bool) or not isinstance(tol, int | float) or not 0.0 < tol <= 0.5:
+        raise ValueError(f"match_tolerance: in (0, 0.5] m/s, got {tol!r}")
+    for key, least, most in (("match_seeds", 1, 50), ("match_iterations", 1, 30)):
+        v = _opt(config, key)
+        if isinstance(v, bool) or not isinstance(v, int) or not least <= v <= most:
+            raise ValueError(f"{key}: an integer in [{least}, {most}], got {v!r}")
+    matched = config.get("matched")
+    if isinstance(matched, dict) and "failed" in matched:
+        raise ValueError(f"matched: this cell's speed calibration failed ({matched['failed']})")
+    if matched is not None and not (isinstance(matched, dict) and "value" in matched):
+        raise ValueError(f"matched: a calibration result with a 'value', got {matched!r}")
+    base = base_of(config)
+    check_fixed(base)
+    gait = trial_scenario(base).gait
+    if by == "speed" and gait not in ("raibert", "authors-raibert"):
+        raise ValueError(f"match_by: 'speed' is a command only in the speed-commanded gaits; gait {gait} "
+                         "matches by frequency or step_length")
+    if by != "speed" and gait != "sine":
+        raise ValueError(f"match_by: {by!r} is tuned in gait A (sine); gait {gait} matches by speed")
+    if by in base:
+        lo, hi = BY_BOUNDS[by]
+        if not lo <= float(base[by]) <= hi:
+            raise ValueError(f"{by}: the calibration's start value must be in [{lo:g}, {hi:g}], "
+                             f"got {base[by]!r}")
+
+
+def cell_key(config: dict) -> tuple:
+    """What a calibration depends on: everything but the reported seed and a supplied result."""
+    return tuple(sorted((k, v) for k, v in config.items() if k not in _CELL_SKIP))
+
+
+def cell_config(config: dict) -> dict:
+    return dict(cell_key(config))
+
+
+def _start(config: dict, by: str) -> float:
+    base = base_of(config)
+    if by in base:
+        return float(base[by])
+    if by == "speed":
+        return float(config["match_speed"])
+    return float(getattr(trial_scenario(base), by))
+
+
+def _point(base: dict, by: str, x: float, seeds: list[int]) -> tuple[float, int]:
+    """Mean speed (m/s) over the standing calibration seeds at input x, and how many fell; NaN when more
+    than half fell."""
+    speeds, fell = [], 0
+    for s in seeds:
+        try:
+            m = run_fixed_trial({**base, by: float(x), "seed": s})
+        except ScenarioError:  # an input the gait cannot run (a foot target out of reach): no speed there
+            return math.nan, 0
+        v = m.get("speed_m_s", math.nan)
+        if m.get("fell") or not (isinstance(v, float) and math.isfinite(v)):
+            fell += 1
+        else:
+            speeds.append(v)
+    if fell * 2 > len(seeds) or not speeds:
+        return math.nan, fell
+    return float(np.mean(speeds)), fell
+
+
+def next_value(history: list[tuple[float, float]], target: float, lo: float, hi: float) -> float | None:
+    """The next input to try from (input, mean speed) points, or None when nothing is left to try:
+    interpolation inside a bracket of the target, else a proportional step (at most x MAX_STEP_RATIO)
+    toward it; a point without a speed (falls) halves the way back to the nearest good one."""
+    good = [(x, v) for x, v in history if math.isfinite(v)]
+    last_x, last_v = history[-1]
+    if not good:
+        return None
+    if not math.isfinite(last_v):
+        nearest = min(good, key=lambda p: abs(p[0] - last_x))[0]
+        x = 0.5 * (last_x + nearest)
+    else:
+        below = [p for p in good if p[1] < target]
+        above = [p for p in good if p[1] > target]
+        if below and above:
+            (xa, va) = min(below, key=lambda p: target - p[1])
+            (xb, vb) = min(above, key=lambda p: p[1] - target)
+            x = xa + (target - va) * (xb - xa) / (vb - va)
+        else:
+            x0, v0 = last_x, last_v
+            ratio = target / v0 if v0 > 0 else MAX_STEP_RATIO
+            x = x0 * min(MAX_STEP_RATIO, max(1.0 / MAX_STEP_RATIO, ratio))
+    x = min(hi, max(lo, x))
+    if any(abs(x - px) <= 1e-6 * max(1.0, abs(px)) for px, _ in history):
+        return None
+    return float(x)
+
+
+def calibrate(config: dict) -> dict:
+    """The calibrated input of this config's cell (cached per cell in this process)."""
+    return json.loads(_calibrate(json.dumps(cell_config(config), sort_keys=True)))
+
+
+@lru_cache(maxsize=64)
+def _calibrate(cell_json: str) -> str:
+    config = json.loads(cell_json)
+    check_match(config)
+    by, target = _opt(config, "match_by"), float(config["match_speed"])
+    tol, n_it = float(_opt(config, "match_tolerance")), int(_opt(config, "match_iterations"))
+    seeds = [CALIBRATION_SEED0 + i for i in range(int(_opt(config, "match_seeds")))]
+    base = base_of(config)
+    lo, hi = BY_BOUNDS[by]
+    x: float | None = min(hi, max(lo, _start(config, by)))
+    history: list[tuple[float, float]] = []
+    falls: list[int] = []
+    while x is not None and len(history) < n_it:
+        v, nf = _point(base, by, x, seeds)
+        history.append((x, v))
+        falls.append(nf)
+        if math.isfinite(v) and abs(v - target) <= tol:
+            break
+        x = next_value(history, target, lo, hi)
+    good = [(abs(v - target), i) for i, (_, v) in enumerate(history) if math.isfinite(v)]
+    i = min(good)[1] if good else len(history) - 1
+    value, achieved = history[i]
+    return json.dumps({
+        "by": by,
+        "target_m_s": target,
+        "value": value,
+        "achieved_m_s": achieved if math.isfinite(achieved) else None,
+        "converged": bool(math.isfinite(achieved) and abs(achieved - target) <= tol),
+        "tolerance_m_s": tol,
+        "seeds": seeds,
+        "history": [[x_, v_ if math.isfinite(v_) else None, nf] for (x_, v_), nf in zip(history, falls,
+                                                                                         strict=True)],
+    }, sort_keys=True)
+
+
+def run_matched_trial(config: dict) -> dict:
+    """Calibrate (or take `matched`), then run the reported seed at the calibrated input; its metrics and
+    `match_*` keys saying what was tuned, to what, and how well."""
+    check_match(config)
+    result = config.get("matched") or calibrate(config)
+    by = result.get("by", _opt(config, "match_by"))
+    m = run_fixed_trial({**base_of(config), by: float(result["value"])})
+    achieved = result.get("achieved_m_s")
+    m.update({
+        "match_by": by,
+        "match_value": float(result["value"]),
+        "match_target_m_s": float(config["match_speed"]),
+        "match_calibration_speed_m_s": math.nan if achieved is None else float(achieved),
+        "match_converged": bool(result.get("converged", False)),
+        "match_points": len(result.get("history", ())),
+        "match_history": json.dumps(result.get("history", [])),
+    })
+    return m
+
+
+def matched_scenario_config(config: dict, metrics: dict) -> dict:
+    """The scenario keys the reported trial ran (the calibrated input in place): what its record stores."""
+    return {**base_of(config), metrics["match_by"]: metrics["match_value"]}
