@@ -416,5 +416,14 @@ def write_report(folder: Path | list[Path], n_boot: int = 400, out: Path | None 
     atomic_write_text(out / "claims.json", json.dumps(jsonable(claims), indent=1, allow_nan=False) + "\n")
     atomic_write_text(out / "claims.md", markdown(claims))
     paths += [out / "claims.json", out / "claims.md"]
+    from sparc_quad.study.robustness import frequency_windows
+    from sparc_quad.study.robustness import markdown as windows_markdown
+
+    windows = frequency_windows(res)
+    if windows:  # panels over the gait frequency: the robustness finding beside the cost
+        atomic_write_text(out / "frequency_window.json",
+                          json.dumps(jsonable(windows), indent=1, allow_nan=False) + "\n")
+        atomic_write_text(out / "frequency_window.md", windows_markdown(windows))
+        paths += [out / "frequency_window.json", out / "frequency_window.md"]
     paths += write_plots(res, out, fn, PLOTTED)
     return paths
