@@ -77,6 +77,8 @@ def read_record(path: Path) -> dict | None:
     """A record (`<hash>.json`, or gzip-compressed `<hash>.json.gz` as committed studies keep them), or None
     if the file is not a whole record (then the trial is run again)."""
     path = Path(path)
+    if path.suffix == ".json" and not path.exists() and path.with_suffix(".json.gz").exists():
+        path = path.with_suffix(".json.gz")  # a committed study: re-running it into its folder runs nothing
     try:
         raw = gzip.decompress(path.read_bytes()) if path.suffix == ".gz" else path.read_bytes()
         rec = json.loads(raw.decode("utf-8"))

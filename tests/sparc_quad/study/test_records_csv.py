@@ -35,3 +35,15 @@ def test_fresh_and_cached_records_give_identical_csv(tmp_path):
     mixed = write_csv(tmp_path / "c.csv", [fresh[0], cached[1], fresh[2]]).read_bytes()
     assert a == b == mixed
     assert b"nan" not in a.lower() and b"inf" not in a.split(b"\n", 1)[1].lower()
+
+
+def test_a_committed_gzip_record_is_found_by_its_plain_name(tmp_path):
+    import gzip
+    import json
+
+    from sparc_quad.study.records import read_record
+
+    rec = {"hash": "abc", "config": {"seed": 0}, "status": "ok"}
+    (tmp_path / "abc.json.gz").write_bytes(gzip.compress(json.dumps(rec).encode()))
+    assert read_record(tmp_path / "abc.json") == rec
+    assert read_record(tmp_path / "missing.json") is None
