@@ -13,6 +13,11 @@ Rows per (robot, engine, gait, spine). A claim whose conditions the study does n
 panel, L not a parameter of the gait, no slopes, every cell fell or ran off speed) is "not tested", never
 "not reproduced". Best cells come from `report.best_of` (on speed, not falling more than the safest cell);
 picking the best of many cells favours it (winner's curse): read C1-C3 with that in mind.
+
+Each claim carries its source's own words (`SOURCES`) beside this project's reading of them and the rule,
+so a reader can judge the operationalisation. A cell with fewer than `MIN_SEEDS` seeds is never judged:
+a rule that has nothing else to judge says "not tested (n < minimum)". `markdown` states how many
+verdicts the report gives and what their uncorrected 95 % intervals control (`multiplicity`).
 """
 
 from __future__ import annotations
@@ -23,8 +28,19 @@ from collections import defaultdict
 import numpy as np
 
 from sparc_quad.metrics import ELEC_SENSITIVITY
-from sparc_quad.study.best_cell import BASELINE_OF, BASELINES, SELECTION_SPLIT, best_of, held_out, stands
-from sparc_quad.study.stats import CONFIDENCE, paired_difference
+from sparc_quad.study.best_cell import (
+    BASELINE_OF,
+    BASELINES,
+    MIN_SEEDS,
+    MIN_STANDING_SHARE,
+    NOT_TESTED_N,
+    SELECTION_SPLIT,
+    best_of,
+    enough_seeds,
+    held_out,
+    stands,
+)
+from sparc_quad.study.stats import CONFIDENCE, mean_over_seeds, paired_difference
 
 HEADLINE = "cot_pos_total"
 ELEC = "cot_elec_total"
@@ -72,6 +88,42 @@ RULES = {
     "C6": "C1's rule with 500-1000 N/m on the uphill panels (slope > 0)",
     "F1": "share of on-speed cells whose CoT_pos against the on-speed locked spine of the same panel has "
     "a CI above 0: all: reproduced; any below 0: not reproduced; else partly",
+}
+
+README = (
+    'authors\' README, "Simulation Results", github.com/YueWang996/sparc README.md at commit 1c8013a, '
+    "bold markup dropped"
+)
+ABSTRACT = "arXiv 2510.01984 v3 abstract"
+# claim -> (source, the source's own words, exact; how this project reads them where the rule narrows them)
+SOURCES = {
+    "C1": (README, "Flat terrain: Moderate stiffness (800-1200 N/m) balances efficiency and stability",
+           "the README weighs efficiency and stability; the rule ranks cost (CoT_pos) only, with stability "
+           "a gate (a cell must stand and not fall more than the safest), not a score"),
+    "C2": (README, "Optimal stride lengths (70-80 mm): Lowest cost of transport with 500-800 N/m stiffness "
+           "and 8-20 N·s/m damping",
+           "stride length as the gait's step_length L (gait A); cost of transport as CoT_pos over the "
+           "judged window"),
+    "C3": (ABSTRACT, "an optimally compliant spine reduces power consumption by 21% at 0.9 m/s compared to a "
+           "rigid-spine baseline",
+           "power as positive mechanical work per distance (CoT_pos; at matched speed the two are "
+           "proportional); 'optimally compliant' as the best cell; 'rigid-spine baseline' as rigid-impedance "
+           "for the motor-rendered spine and the locked joint for the passive one; '21%' read both as about "
+           "21 % and as at least 21 %, the finding says which holds"),
+    "C3e": (ABSTRACT, "an optimally compliant spine reduces power consumption by 21% at 0.9 m/s compared to "
+            "a rigid-spine baseline",
+            "power as electrical power per distance (CoT_elec: positive work plus winding losses from "
+            "actuator constants, so the finding shows it with the constants x 0.5 and x 2)"),
+    "C4": (ABSTRACT, "low-speed efficiency is insensitive to spinal properties",
+           "'insensitive' as: the spread over k x d of % against the baseline at low speed is less than "
+           "half of that at 0.9 m/s (the 0.5 is this project's choice)"),
+    "C5": (README, "Downhill slopes: Higher stiffness (1000-1500 N/m) reduces excessive pitch-down",
+           "the README judges pitch-down; the rule judges cost (CoT_pos), so a verdict speaks of cost only"),
+    "C6": (README, "Uphill slopes: Lower stiffness (500-1000 N/m) enables elastic energy storage",
+           "the README speaks of energy storage; the rule judges cost (CoT_pos), so a verdict speaks of cost "
+           "only"),
+    "F1": ("this project's own finding (Solo12, both gaits), no source's claim", None,
+           "kept in view because it runs against the direction of C3"),
 }
 
 
@@ -126,9 +178,27 @@ def _ref_panel(panels: list[dict]) -> dict | None:
 
 
 def _judged(cs: list, left: dict) -> int:
-    """How many cells the best-cell rule ranked (on speed, not falling more than the safest)."""
+    """How many cells the best-cell rule ranked (on speed, enough seeds, not falling more than the safest)."""
     return (sum(c.est is not None for c in cs) - len(left["off_speed"]) - len(left.get("fall_more", []))
-            - len(left.get("falls", [])))
+            - len(left.get("falls", [])) - len(left.get("few_seeds", [])))
+
+
+def _untested(left: dict) -> str:
+    """The verdict of a rule with too few judged cells: says so when cells were left out for their n."""
+    return NOT_TESTED_N if left.get("few_seeds") else "not tested"
+
+
+def _span(ns) -> str:
+    """A set of counts as '10' or '8-10'."""
+    ns = sorted(set(ns))
+    if not ns:
+        return "0"
+    return f"{ns[0]}" if len(ns) == 1 else f"{ns[0]}-{ns[-1]}"
+
+
+def _n(ests) -> str:
+    """The seed counts behind a set of intervals: 'n = 10' or 'n = 8-10'."""
+    return f"n = {_span(e.n_seeds for e in ests if e is not None)}"
 
 
 def _why_untested(cs: list, left: dict) -> str:
@@ -136,24 +206,35 @@ def _why_untested(cs: list, left: dict) -> str:
     off = left.get("off_speed", [])
     speeds = sorted(c.extras.get("speed_m_s") or 0.0 for c in off)
     txt = f"{speeds[0]:.2f}-{speeds[-1]:.2f} m/s" if speeds else ""
+    few = left.get("few_seeds", [])
+    few_txt = f"{len(few)} cells with n < minimum ({_span(c.n for c in few)} seeds, need {MIN_SEEDS}), "
+    few_txt = few_txt if few else ""
     return (
         f"{_judged(cs, left)} of {len(cs)} cells on speed and standing (need {MIN_JUDGED_CELLS}): {nf}/{n} "
-        f"trials fell, {len(left.get('falls', []))} cells not tested (falls: fewer than 8 of 10 seeds "
-        f"standing), {len(off)} cells off speed {txt}"
+        f"trials fell, {few_txt}{len(left.get('falls', []))} cells not tested (falls: fewer than "
+        f"{MIN_STANDING_SHARE:.0%} of their seeds, or fewer than {MIN_SEEDS}, standing), {len(off)} cells "
+        f"off speed {txt}"
     ).rstrip()
+
+
+def _estimate(best, left: dict):
+    """The best cell's interval on the seeds it was not chosen on, when the choice was split."""
+    if left.get("selection") == SELECTION_SPLIT:
+        return mean_over_seeds(list(held_out(best.seeds).values())) or best.est
+    return best.est
 
 
 def _best_k_rule(analysis, panel, spine, k_range, claim, base) -> dict:
     cs = _cells(analysis, panel["panel"], spine)
     best, near, left = best_of(cs)
     if best is None or _judged(cs, left) < MIN_JUDGED_CELLS:
-        return {**base, "claim": claim, "verdict": "not tested", "finding": _why_untested(cs, left)}
+        return {**base, "claim": claim, "verdict": _untested(left), "finding": _why_untested(cs, left)}
     ks = sorted({c.k for c in near})
     if _in(best.k, k_range):
         v = "reproduced" if all(_in(k, k_range) for k in ks) else "not resolved"
     else:
         v = "not resolved" if any(_in(k, k_range) for k in ks) else "not reproduced"
-    e = best.est
+    e = _estimate(best, left)
     return {
         **base,
         "claim": claim,
@@ -163,8 +244,9 @@ def _best_k_rule(analysis, panel, spine, k_range, claim, base) -> dict:
         "near_best_k": ks,
         "finding": f"{panel['panel']}: best k_x {_g(best.k)} N/m (d_x {_g(best.d)}), CoT_pos "
         f"{_ci(e.value, e.lo, e.hi, 2)} at {best.extras.get('speed_m_s') or 0:.2f} m/s, "
-        f"{e.n_seeds} seeds; not distinguishable: k_x {', '.join(_g(k) for k in ks)}; "
-        f"left out: {len(left['off_speed'])} off-speed, {len(left['falls'])} not tested (falls), "
+        f"n = {e.n_seeds} seeds; not distinguishable: k_x {', '.join(_g(k) for k in ks)}; "
+        f"left out: {len(left['off_speed'])} off-speed, {len(left['few_seeds'])} n < minimum, "
+        f"{len(left['falls'])} not tested (falls), "
         f"{len(left['fall_more'])} falling more, {len(left['all_fell'])} all fell; best {left['selection']}",
     }
 
@@ -186,7 +268,7 @@ def _c2(analysis, ref, family_panels, spine, base) -> dict:
     L_of = {p["panel"]: p["config"]["step_length"] for p in family_panels}
     best, near, left = best_of(cs)
     if best is None or _judged(cs, left) < MIN_JUDGED_CELLS:
-        return {**base, "claim": "C2", "verdict": "not tested", "finding": _why_untested(cs, left)}
+        return {**base, "claim": "C2", "verdict": _untested(left), "finding": _why_untested(cs, left)}
     varied = any(_in(L, C2_L_M) for L in Ls) and any(not _in(L, C2_L_M) for L in Ls)
 
     def hit(c) -> bool:
@@ -204,7 +286,7 @@ def _c2(analysis, ref, family_panels, spine, base) -> dict:
         if hit(best) and all(hit(c) for c in near)
         else ("not reproduced" if not any(hit(c) for c in near) else "not resolved")
     )
-    e = best.est
+    e = _estimate(best, left)
     scope = (
         f"over L {', '.join(f'{1000 * L:.0f}' for L in Ls)} mm"
         if varied
@@ -218,7 +300,8 @@ def _c2(analysis, ref, family_panels, spine, base) -> dict:
         "best_d": best.d,
         "best_L_m": L_of[best.panel],
         "finding": f"{scope}: best (k_x, d_x, L) = ({_g(best.k)}, {_g(best.d)}, "
-        f"{1000 * L_of[best.panel]:.0f} mm), CoT_pos {_ci(e.value, e.lo, e.hi, 2)}; "
+        f"{1000 * L_of[best.panel]:.0f} mm), CoT_pos {_ci(e.value, e.lo, e.hi, 2)}, n = {e.n_seeds} seeds "
+        f"(best {left['selection']}); "
         f"{sum(hit(c) for c in near)}/{len(near)} near-best cells in the claimed ranges",
     }
 
@@ -247,7 +330,7 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
     cs = [c for n in names for c in _cells(analysis, n, spine, metric)]
     best, _, left = best_of(cs)
     if best is None:
-        return {**base, "claim": claim, "verdict": "not tested", "finding": _why_untested(cs, left)}
+        return {**base, "claim": claim, "verdict": _untested(left), "finding": _why_untested(cs, left)}
     bases = [
         c
         for c in analysis["cells"]
@@ -258,6 +341,16 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
     ]
     on = [c for c in bases if not c.off_speed and stands(c)]
     pick = [c for c in on if c.spine == BASELINE_OF[spine]] or on
+    few = [c for c in bases if not enough_seeds(c)]
+    if not pick and few:
+        return {
+            **base,
+            "claim": claim,
+            "verdict": NOT_TESTED_N,
+            "finding": "baseline "
+            + ", ".join(f"{c.spine} {c.n} seeds" for c in few)
+            + f" (need {MIN_SEEDS})",
+        }
     if not pick:
         speeds = ", ".join(f"{c.spine} {c.extras.get('speed_m_s') or 0:.2f}" for c in bases) or "none ran"
         return {
@@ -285,7 +378,7 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
         return f"{c.panel} ({_g(c.k)}, {_g(c.d)}) at {c.extras.get('speed_m_s') or 0:.2f} m/s"
 
     text = f"{where(best)} against {b.spine} {where(b)}: {_ci(d.value, d.lo, d.hi, 0, ' %')}, "
-    text += f"{d.n_seeds} seeds (best {left['selection']})"
+    text += f"n = {d.n_seeds} seeds (best {left['selection']})"
     if d.lo is not None and d.hi is not None:  # the source's "21 %" read two ways
         about = d.lo <= C3_SAVING_PCT <= d.hi and d.hi < 0
         text += (f"; about 21 % (CI holds -21 % and excludes 0): {'yes' if about else 'no'}; at least 21 % "
@@ -313,7 +406,7 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
             )
             o = paired_difference(mb.seeds, mr.seeds) if mb is not None and mr is not None else None
             if o is not None:
-                sens.append(f"c x {scale:g}: {_ci(o.value, o.lo, o.hi, 0, ' %')}")
+                sens.append(f"c x {scale:g}: {_ci(o.value, o.lo, o.hi, 0, ' %')}, n = {o.n_seeds} seeds")
         text += "; winding constants " + ("; ".join(sens) if sens else "–")
     return {
         **base,
@@ -342,7 +435,7 @@ def _dominance(cs: list) -> str:
     dearer = sum(1 for c in rated if c.diff_pct.lo is not None and c.diff_pct.lo > 0)
     return (
         f"{both}/{len(rated)} cells ran faster than their panel's baseline and cost less (CI below 0), "
-        f"{dearer} cost more"
+        f"{dearer} cost more ({_n(c.diff_pct for c in rated)} seeds)"
     )
 
 
@@ -390,8 +483,10 @@ def _c4(analysis, ref, low, spine, base) -> dict:
         return {
             (c.k, c.d): c
             for c in _cells(analysis, p["panel"], spine)
-            if c.est is not None and not c.off_speed and c.diff_pct is not None
+            if c.est is not None and not c.off_speed and c.diff_pct is not None and stands(c)
         }
+
+    compared = [c for p in (low, ref) for c in _cells(analysis, p["panel"], spine) if c.est is not None]
 
     a, b = usable(low), usable(ref)
     common = sorted(set(a) & set(b), key=repr)
@@ -401,17 +496,22 @@ def _c4(analysis, ref, low, spine, base) -> dict:
         return next((c for c in _cells(analysis, p["panel"], name)), None) if name else None
 
     lb, rb = base_cell(low), base_cell(ref)
-    if len(common) < 2 or lb is None or rb is None or lb.est is None or rb.est is None:
+    few = [c for c in [*compared, lb, rb] if c is not None and not enough_seeds(c)]
+    if len(common) < 2 or lb is None or rb is None or lb.est is None or rb.est is None or not (
+            stands(lb) and stands(rb)):
         return {
             **base,
             "claim": "C4",
-            "verdict": "not tested",
+            "verdict": NOT_TESTED_N if few else "not tested",
             "finding": f"{len(common)} common on-speed cells at {low['target_speed_m_s']:.2f} and "
-            f"{ref['target_speed_m_s']:.2f} m/s (need 2 and both baselines)",
+            f"{ref['target_speed_m_s']:.2f} m/s (need 2 and both baselines standing)"
+            + (f"; {len(few)} cells with n < minimum (need {MIN_SEEDS} seeds)" if few else ""),
         }
     r = _range_ratio([a[k] for k in common], [b[k] for k in common], lb, rb)
-    if r is None:
-        return {**base, "claim": "C4", "verdict": "not tested", "finding": "fewer than 2 common seeds"}
+    if r is None or r[3] < MIN_SEEDS:
+        got = r[3] if r else "fewer than 2"
+        return {**base, "claim": "C4", "verdict": NOT_TESTED_N,
+                "finding": f"{got} seeds stand in every compared cell (need {MIN_SEEDS})"}
     value, lo, hi, n = r
     v = "reproduced" if hi < C4_RATIO else ("not reproduced" if lo >= C4_RATIO else "not resolved")
     return {
@@ -422,12 +522,13 @@ def _c4(analysis, ref, low, spine, base) -> dict:
         "ratio_lo": lo,
         "ratio_hi": hi,
         "finding": f"range of % vs baseline over {len(common)} cells, {low['target_speed_m_s']:.2f} over "
-        f"{ref['target_speed_m_s']:.2f} m/s: {_ci(value, lo, hi, 2)} ({n} seeds)",
+        f"{ref['target_speed_m_s']:.2f} m/s: {_ci(value, lo, hi, 2)} (n = {n} seeds)",
     }
 
 
 def _f1(analysis, ref, spine, base) -> dict:
-    cs = [c for c in _cells(analysis, ref["panel"], spine) if c.est is not None and not c.off_speed]
+    rated = [c for c in _cells(analysis, ref["panel"], spine) if c.est is not None]
+    cs = [c for c in rated if not c.off_speed and stands(c)]
     locked = next(
         (
             c
@@ -436,6 +537,22 @@ def _f1(analysis, ref, spine, base) -> dict:
         ),
         None,
     )
+    few = [c for c in [*rated, locked] if c is not None and not enough_seeds(c)]
+    if few and (not cs or (locked is not None and not enough_seeds(locked))):
+        return {
+            **base,
+            "claim": "F1",
+            "verdict": NOT_TESTED_N,
+            "finding": f"{len(few)} cells (locked spine included: {'yes' if locked in few else 'no'}) ran "
+            f"{_span(c.n for c in few)} seeds (need {MIN_SEEDS})",
+        }
+    if locked is not None and locked.est is not None and not stands(locked):
+        return {
+            **base,
+            "claim": "F1",
+            "verdict": "not tested",
+            "finding": f"the locked spine fell in {locked.n_fell}/{locked.n} seeds: not judged (falls)",
+        }
     if locked is not None and locked.est is not None and locked.off_speed:
         return {
             **base,
@@ -449,10 +566,13 @@ def _f1(analysis, ref, spine, base) -> dict:
             **base,
             "claim": "F1",
             "verdict": "not tested",
-            "finding": "no on-speed cells or no locked spine",
+            "finding": "no on-speed standing cells or no locked spine",
         }
     ds = [paired_difference(c.seeds, locked.seeds) for c in cs]
     ds = [d for d in ds if d is not None]
+    if not ds:
+        return {**base, "claim": "F1", "verdict": "not tested",
+                "finding": "no seed in common with the locked spine"}
     more = sum(d.lo is not None and d.lo > 0 for d in ds)
     less = sum(d.hi is not None and d.hi < 0 for d in ds)
     v = "reproduced" if more == len(ds) else ("not reproduced" if less else "partly")
@@ -462,7 +582,7 @@ def _f1(analysis, ref, spine, base) -> dict:
         "claim": "F1",
         "verdict": v,
         "finding": f"{ref['panel']}: {more}/{len(ds)} cells cost more than locked (CI > 0), {less} less; "
-        f"% vs locked {vals[0]:+.0f} to {vals[-1]:+.0f}",
+        f"% vs locked {vals[0]:+.0f} to {vals[-1]:+.0f} ({_n(ds)} seeds each)",
     }
 
 
@@ -519,13 +639,68 @@ def evaluate(analysis: dict) -> list[dict]:
                     else {**base, "claim": claim, "verdict": "not tested", "finding": "no such slope"}
                 )
     for r in out:
-        r["rule"] = RULES[r["claim"]]
+        src, words, reading = SOURCES[r["claim"]]
+        r.update(source=src, source_words=words, reading=reading, rule=RULES[r["claim"]])
     return out
 
 
+def multiplicity(rows: list[dict]) -> dict:
+    """How many verdicts the rows give and what their intervals control: each verdict uses 95 % intervals
+    computed for it alone, with no family-wise correction (the claims are separate questions, each read on
+    its own; a Bonferroni bound over every row would make the intervals at 10 seeds about twice as wide and
+    leave nearly every claim unresolved), so the expected number of false verdicts grows with their count."""
+    n = sum(not r["verdict"].startswith("not tested") for r in rows)
+    alpha = 1.0 - CONFIDENCE
+    return {
+        "rows": len(rows),
+        "verdicts": n,
+        "not_tested": len(rows) - n,
+        "confidence_per_interval": CONFIDENCE,
+        "familywise_correction": "none",
+        "expected_false_verdicts": alpha * n,
+        "chance_of_any_false_verdict": 1.0 - CONFIDENCE**n,
+        "min_seeds_per_cell": MIN_SEEDS,
+    }
+
+
+def multiplicity_text(m: dict) -> str:
+    """The report's statement of how many verdicts it gives and what that means."""
+    head = (
+        f"This report gives {m['verdicts']} verdicts (reproduced, not reproduced, not resolved or partly) in "
+        f"{m['rows']} rows; the other {m['not_tested']} rows are not tested. A cell is judged only with at "
+        f"least {m['min_seeds_per_cell']} seeds run and standing, else \"{NOT_TESTED_N}\" or \"not tested "
+        "(falls)\". Every interval is a 95 % interval for its own verdict, shown with its n (seeds), with no "
+        "family-wise correction (no Bonferroni or Holm across rows, nor across the cells one rule compares)"
+    )
+    if not m["verdicts"]:
+        return head + ": there is no verdict to correct."
+    return (
+        head + f": if every interval covers at its nominal 95 %, about {m['expected_false_verdicts']:.1f} of "
+        f"the {m['verdicts']} verdicts can be wrong by chance alone, and the chance that at least one is "
+        f"wrong is up to {m['chance_of_any_false_verdict']:.0%}. A rule that compares several cells (C1, C2, "
+        "C5, C6 over the near-best set, F1 over a panel's cells) makes one such comparison per cell, so its "
+        "verdict can err more often than 5 %. Read a single verdict with that in mind; an agreement across "
+        "engines, hosts and gaits counts for more than any one row."
+    )
+
+
+def document(rows: list[dict]) -> dict:
+    """claims.json: the multiplicity statement, each claim's source words and rule, and the rows."""
+    claims = {
+        c: {"text": CLAIM_TEXT[c], "source": SOURCES[c][0], "source_words": SOURCES[c][1],
+            "reading": SOURCES[c][2], "rule": RULES[c]}
+        for c in CLAIM_TEXT
+    }
+    return {"multiplicity": multiplicity(rows), "claims": claims, "rows": rows}
+
+
 def markdown(rows: list[dict]) -> str:
+    """claims.md: the multiplicity statement, the verdict table, then per claim its source's words beside
+    this project's reading and rule."""
     lines = [
-        "| claim (authors) | robot | engine | gait | spine | this study (95 % CI) | verdict |",
+        multiplicity_text(multiplicity(rows)),
+        "",
+        "| claim (authors) | robot | engine | gait | spine | this study (95 % CI, n seeds) | verdict |",
         "|---|---|---|---|---|---|---|",
     ]
     order = list(CLAIM_TEXT)
@@ -536,5 +711,9 @@ def markdown(rows: list[dict]) -> str:
             f"| {r['claim']}: {CLAIM_TEXT[r['claim']]} | {r['robot']} | {r['engine']} | {r['gait']} | "
             f"{r['spine']} | {r['finding']} | {r['verdict']} |"
         )
-    rules = "\n".join(f"- {c}: {t}" for c, t in RULES.items())
-    return "\n".join(lines) + "\n\nRules:\n" + rules + "\n"
+    lines += ["", "Claims as their sources state them, this project's reading, and the rules:"]
+    for c, rule in RULES.items():
+        src, words, reading = SOURCES[c]
+        said = f'"{words}" ({src})' if words else src
+        lines.append(f"- {c}: {said}. Read here as: {reading}. Rule: {rule}")
+    return "\n".join(lines) + "\n"

@@ -410,10 +410,11 @@ def write_report(folder: Path | list[Path], n_boot: int = 400, out: Path | None 
     }
     atomic_write_text(out / "cells.json", json.dumps(jsonable(doc), indent=1, allow_nan=False) + "\n")
     paths.append(out / "cells.json")
-    from sparc_quad.study.claims import evaluate, markdown
+    from sparc_quad.study.claims import document, evaluate, markdown
 
     claims = evaluate(res)
-    atomic_write_text(out / "claims.json", json.dumps(jsonable(claims), indent=1, allow_nan=False) + "\n")
+    atomic_write_text(out / "claims.json", json.dumps(jsonable(document(claims)), indent=1, allow_nan=False)
+                      + "\n")
     atomic_write_text(out / "claims.md", markdown(claims))
     paths += [out / "claims.json", out / "claims.md"]
     from sparc_quad.study.robustness import frequency_windows

@@ -1,14 +1,22 @@
 """The study report's plots, from `report.analyse`'s cells (matplotlib, Agg).
 
 Read at a glance: per-seed points beside each cell's mean and interval, the seed count, off-speed cells
-marked (hollow / dotted), fully fallen cells drawn as fallen (never interpolated over), the baselines as
-visible bands, legs and spine split, and each cell's gait frequency against the spine's f_n(k).
+marked (hollow / dotted), fully fallen cells drawn as fallen (never interpolated over), the baselines on
+every panel, legs and spine split, and each cell's gait frequency against the spine's f_n(k).
+
+Made for a referee: a heatmap's colours are clipped at the 5-95 % quantiles of its cells' values (one
+extreme cell must not flatten the rest; the colourbar says so, each cell prints its own value); a cost's
+interval is drawn on the log scale (`positive_interval`), so a positive cost never shows a negative bound;
+titles are wrapped to the figure's width and every figure is laid out so its titles and legends stay
+inside it (`tests/sparc_quad/study/test_report_plots.py`). Each plot is built by a `*_figure` function
+(testable) and saved by `plot_*`.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import textwrap
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -19,6 +27,9 @@ from sparc_quad.study.records import atomic_write_text
 
 SPINES = ("impedance", "passive")
 BASE_COLOURS = {"rigid": "0.35", "rigid-impedance": "tab:purple"}
+CLIP_QUANTILES = (0.05, 0.95)  # a heatmap's colour scale spans these quantiles of its cells' values
+MIN_COLOUR_LIMIT_PCT = 5.0  # a panel of near-equal cells is not stretched to look different
+DPI = 110
 
 
 def _plt():
@@ -32,6 +43,39 @@ def _plt():
 
 def _fmt(x: float | None, nd: int = 2) -> str:
     return "–" if x is None or not math.isfinite(x) else f"{x:.{nd}f}"
+
+
+def _wrap(text: str, fig, fontsize: float) -> str:
+    """Text wrapped to the figure's width (an unwrapped long panel name runs off the figure)."""
+    chars = max(20, int(fig.get_figwidth() * 72 / (0.62 * fontsize)))
+    return "\n".join(textwrap.fill(line, chars, break_on_hyphens=False) for line in text.split("\n"))
+
+
+def _save(fig, path: Path) -> Path:
+    fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=0.05)
+    _plt().close(fig)
+    return path
+
+
+def colour_limit(values: Iterable[float]) -> tuple[float, int]:
+    """The heatmap's symmetric colour limit: the larger magnitude of the 5 % and 95 % quantiles of the
+    values (at least MIN_COLOUR_LIMIT_PCT), and how many values lie beyond it (drawn in the end colour)."""
+    v = np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+    if not v.size:
+        return MIN_COLOUR_LIMIT_PCT, 0
+    q = np.quantile(v, CLIP_QUANTILES)
+    lim = max(MIN_COLOUR_LIMIT_PCT, float(np.max(np.abs(q))))
+    return lim, int(np.sum(np.abs(v) > lim))
+
+
+def positive_interval(e) -> tuple[float, float] | None:
+    """A positive mean's 95 % interval on the log scale: mean x/÷ exp(h / mean), h the half-width of its
+    t interval (the delta method, SE(log m) = SE(m) / m), so a positive cost never shows a bound below 0;
+    None without an interval or for a mean <= 0."""
+    if e is None or e.lo is None or e.hi is None or not e.value > 0:
+        return None
+    f = math.exp((e.hi - e.value) / e.value)
+    return e.value / f, e.value * f
 
 
 def natural_frequencies(ks: Iterable[float], cache: Path) -> dict[float, float]:
@@ -80,8 +124,13 @@ def _baseline_text(mine: list) -> str:
 
 
 def plot_heatmap(panel: dict, metric: str, cells: list, path: Path) -> Path | None:
-    """% against each cell's baseline over k x d, one panel per spine; the colour scale spans the largest
-    difference shown (no saturation)."""
+    fig = heatmap_figure(panel, metric, cells)
+    return _save(fig, path) if fig is not None else None
+
+
+def heatmap_figure(panel: dict, metric: str, cells: list):
+    """% against each cell's baseline over k x d, one panel per spine; colours clipped at the 5-95 %
+    quantiles of the cells' values (`colour_limit`), said on the colourbar."""
     plt = _plt()
     from matplotlib.colors import TwoSlopeNorm
     from matplotlib.patches import Rectangle
@@ -92,10 +141,9 @@ def plot_heatmap(panel: dict, metric: str, cells: list, path: Path) -> Path | No
         return None
     ks = sorted({c.k for c in mine if c.spine in spines and c.k is not None}) or [None]
     ds = sorted({c.d for c in mine if c.spine in spines and c.d is not None}) or [None]
-    diffs = [
-        abs(c.diff_pct.value) for c in mine if c.diff_pct is not None and math.isfinite(c.diff_pct.value)
-    ]
-    lim = max(5.0, max(diffs, default=5.0))
+    lim, n_clipped = colour_limit(
+        c.diff_pct.value for c in mine if c.spine in spines and c.diff_pct is not None
+    )
     norm = TwoSlopeNorm(vmin=-lim, vcenter=0.0, vmax=lim)
     fig, axes = plt.subplots(
         1,
@@ -148,26 +196,49 @@ def plot_heatmap(panel: dict, metric: str, cells: list, path: Path) -> Path | No
         base = next((c.baseline for c in mine if c.spine == spine and c.baseline), None)
         ax.set_title(f"{spine} spine against {base or 'no baseline'}", fontsize=10)
     if im is not None:
-        fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9).set_label("% against the baseline (blue = cheaper)")
+        bar = fig.colorbar(im, ax=axes[0].tolist(), shrink=0.9, extend="both")
+        bar.set_label(
+            f"% against the baseline (blue = cheaper)\ncolours clipped at +-{lim:.0f} % (the larger of the 5 "
+            f"and 95 % quantiles; {n_clipped} cells beyond)",
+            fontsize=8,
+        )
+        bar.ax.set_gid("colourbar")
     target = panel.get("target_speed_m_s")
     fig.suptitle(
-        f"{panel['panel']}: {label(metric)}; target speed {_fmt(target)} m/s ({panel.get('target_source')})\n"
-        f"{_baseline_text(mine)}\ncell: mean, % vs baseline [95 % CI], speed, seeds; hatched xx a trial "
-        "fell, /// CI contains 0; dotted box: > 0.05 m/s off target (not judged); dark: every trial fell",
+        _wrap(
+            f"{panel['panel']}: {label(metric)}; target speed {_fmt(target)} m/s "
+            f"({panel.get('target_source')})\n{_baseline_text(mine)}\ncell: mean, % vs baseline [95 % CI], "
+            "speed, seeds; hatched xx a "
+            "trial fell, /// CI contains 0; dotted box: off target (not judged); dark: every trial fell; "
+            f"colours clipped at the 5-95 % quantiles (+-{lim:.0f} %), each cell prints its own value",
+            fig,
+            8,
+        ),
         fontsize=8,
     )
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
+
+
+def _draw_baselines(ax, base_cells: list, value) -> None:
+    """Every baseline of the panel on this axes, so no panel is read without them: a line at its value,
+    or, if every trial fell, a labelled note; each artist's gid names the baseline."""
+    for c in base_cells:
+        col = BASE_COLOURS[c.spine]
+        v = value(c)
+        if v is None:
+            ax.plot([], [], " ", label=f"{c.spine}: fell {c.n_fell}/{c.n}", gid=f"baseline:{c.spine}")
+            continue
+        n = c.est.n_seeds if c.est is not None else c.n - c.n_fell
+        ax.axhline(v, color=col, lw=1.3, ls="-.", label=f"{c.spine} (n={n})", gid=f"baseline:{c.spine}")
 
 
 def _draw_cost(ax, mine_m: list, spine: str, fn: dict) -> None:
-    for c in mine_m:
-        if c.spine in BASE_COLOURS and c.est is not None:
-            col = BASE_COLOURS[c.spine]
-            ax.axhline(c.est.value, color=col, lw=1.3, label=f"{c.spine} (n={c.est.n_seeds})")
-            if c.est.lo is not None:
-                ax.axhspan(c.est.lo, c.est.hi, color=col, alpha=0.25, zorder=0)
+    base = [c for c in mine_m if c.spine in BASE_COLOURS]
+    _draw_baselines(ax, base, lambda c: c.est.value if c.est is not None else None)
+    for c in base:
+        band = positive_interval(c.est)
+        if band is not None:
+            ax.axhspan(*band, color=BASE_COLOURS[c.spine], alpha=0.25, zorder=0)
     ds = sorted({c.d for c in mine_m if c.spine == spine and c.d is not None}) or [None]
     top = max((max(c.est.per_seed) for c in mine_m if c.est is not None and c.est.per_seed), default=1.0)
     for i_d, d in enumerate(ds):
@@ -186,8 +257,9 @@ def _draw_cost(ax, mine_m: list, spine: str, fn: dict) -> None:
             if run:
                 x = np.array([r.k for r in run]) * dodge
                 y = np.array([r.est.value for r in run])
-                lo = np.array([r.est.lo if r.est.lo is not None else r.est.value for r in run])
-                hi = np.array([r.est.hi if r.est.hi is not None else r.est.value for r in run])
+                bands = [positive_interval(r.est) or (r.est.value, r.est.value) for r in run]
+                lo = np.array([b[0] for b in bands])
+                hi = np.array([b[1] for b in bands])
                 h = ax.errorbar(
                     x,
                     y,
@@ -216,7 +288,13 @@ def _draw_cost(ax, mine_m: list, spine: str, fn: dict) -> None:
 
 
 def plot_vs_k(panel: dict, metric: str, cells: list, fn: dict, path: Path) -> Path | None:
-    """CoT against k per d: total, legs, spine (rows) per spine variant (columns)."""
+    fig = vs_k_figure(panel, metric, cells, fn)
+    return _save(fig, path) if fig is not None else None
+
+
+def vs_k_figure(panel: dict, metric: str, cells: list, fn: dict):
+    """CoT against k per d: total, legs, spine (rows) per spine variant (columns); the baselines on every
+    panel; intervals on the log scale (`positive_interval`)."""
     plt = _plt()
     if not metric.endswith("_total"):
         return None
@@ -242,23 +320,34 @@ def plot_vs_k(panel: dict, metric: str, cells: list, fn: dict, path: Path) -> Pa
                 ax.set_ylabel(label(m), fontsize=8)
             if i == 0:
                 ax.set_title(f"{spine} spine", fontsize=10)
-                ax.legend(fontsize=7, loc="best")
+            ax.legend(fontsize=6, loc="best")
             if i == len(rows) - 1:
                 ax.set_xlabel("k_x (N/m); below: f_n(k), the spine's free-oscillation frequency")
     fig.suptitle(
-        f"{panel['panel']}: {label(metric)} against k, legs and spine split\nerror bars 95 % CI over "
-        f"seeds, dots per seed, bands the baselines' CI; hollow ring: off-speed; X: every trial fell",
+        _wrap(
+            f"{panel['panel']}: {label(metric)} against k, legs and spine split\nerror bars 95 % CI over "
+            "seeds on the log scale (mean x/÷ exp(half-width / mean): a cost stays positive), dots per "
+            "seed, dash-dot lines and bands the baselines and their CI; hollow ring: off-speed; X: every "
+            "trial fell",
+            fig,
+            9,
+        ),
         fontsize=9,
     )
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def plot_frequency(panel: dict, cells: list, fn: dict, path: Path) -> Path | None:
-    """Each cell's gait frequency (tuned per cell for raibert-opt, adapted for sine) against f_n(k)."""
+    fig = frequency_figure(panel, cells, fn)
+    return _save(fig, path) if fig is not None else None
+
+
+def frequency_figure(panel: dict, cells: list, fn: dict):
+    """Each cell's gait frequency (tuned per cell for raibert-opt, adapted for sine) against f_n(k), the
+    baselines' gait frequencies beside them."""
     plt = _plt()
-    mine = [c for c in _mine(panel, "cot_pos_total", cells) if c.k is not None and c.spine in SPINES]
+    everything = _mine(panel, "cot_pos_total", cells)
+    mine = [c for c in everything if c.k is not None and c.spine in SPINES]
     pts = [(c.k, c.extras.get("commanded_gait_frequency_hz"), c) for c in mine]
     pts = [p for p in pts if p[1] is not None]
     if not pts or not fn:
@@ -277,18 +366,26 @@ def plot_frequency(panel: dict, cells: list, fn: dict, path: Path) -> Path | Non
                 alpha=0.7,
                 label=f"{spine}: gait frequency per cell",
             )
+    _draw_baselines(
+        ax, [c for c in everything if c.spine in BASE_COLOURS],
+        lambda c: c.extras.get("commanded_gait_frequency_hz") if c.est is not None else None,
+    )
     _finish(
         fig,
         ax,
-        path,
         "k_x (N/m)",
         "frequency (Hz)",
-        f"{panel['panel']}: per-cell gait frequency against f_n(k)",
+        f"{panel['panel']}: per-cell gait frequency against f_n(k); dash-dot: the baselines' gait frequency",
     )
-    return path
+    return fig
 
 
 def plot_cost_vs_speed(panels: list[dict], metric: str, cells: list, path: Path) -> Path | None:
+    fig = cost_vs_speed_figure(panels, metric, cells)
+    return _save(fig, path) if fig is not None else None
+
+
+def cost_vs_speed_figure(panels: list[dict], metric: str, cells: list):
     """Each cell's cost against its mean speed over a family of panels (gait A: one per step length L),
     one colour per spine, one marker per panel: where speed is emergent, cost is compared at equal speed
     here (and the claims compare on-speed cells of any L)."""
@@ -317,7 +414,8 @@ def plot_cost_vs_speed(panels: list[dict], metric: str, cells: list, path: Path)
         seen.add(c.spine)
     t = panels[0].get("target_speed_m_s")
     if t is not None:
-        ax.axvspan(t - 0.05, t + 0.05, color="0.9", zorder=0, label="target +- 0.05 m/s")
+        tol = mine[0].speed_tolerance_m_s
+        ax.axvspan(t - tol, t + tol, color="0.9", zorder=0, label=f"target +- {tol:.2f} m/s")
     values = [c.est.value for c in mine if c.extras.get("speed_m_s") is not None]
     if values and min(values) > 0 and max(values) > 10 * min(values):
         ax.set_yscale("log")  # one slow, expensive cell must not flatten the rest
@@ -326,23 +424,20 @@ def plot_cost_vs_speed(panels: list[dict], metric: str, cells: list, path: Path)
     _finish(
         fig,
         ax,
-        path,
         "mean speed (m/s)",
         label(metric),
         f"{panels[0]['panel'].split('_step_length')[0]}: cost against speed, one point per cell "
-        f"(hollow: off-speed)\nmarkers: {key}",
+        f"(hollow: off-speed; large markers: the baselines)\nmarkers: {key}",
     )
-    return path
+    return fig
 
 
-def _finish(fig, ax, path: Path, xlabel: str, ylabel: str, title: str) -> None:
+def _finish(fig, ax, xlabel: str, ylabel: str, title: str) -> None:
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="best")
     ax.grid(alpha=0.3)
-    ax.set_title(title, fontsize=8)
-    fig.savefig(path, dpi=110)
-    _plt().close(fig)
+    ax.set_title(_wrap(title, fig, 8), fontsize=8)
 
 
 def _families(panels: list[dict]) -> dict[str, list[dict]]:

@@ -4,12 +4,29 @@ interval, the C4 ratio's interval, and plots of fully fallen cells."""
 from __future__ import annotations
 
 import json
+import re
+import tomllib
 
 import numpy as np
+import pytest
 
-from sparc_quad.study.claims import evaluate, markdown
+from sparc_quad.study.best_cell import MIN_SEEDS, NOT_TESTED_N
+from sparc_quad.study.claims import (
+    C1_K,
+    C2_D,
+    C2_K,
+    C3_SAVING_PCT,
+    C5_K,
+    C6_K,
+    RULES,
+    SOURCES,
+    evaluate,
+    markdown,
+    multiplicity,
+)
 from sparc_quad.study.records import write_record
 from sparc_quad.study.report import analyse, load_trials, write_report
+from tests.paths import ROOT
 
 KS = (300.0, 800.0, 1200.0)
 DS = (8.0, 20.0)
@@ -117,7 +134,8 @@ def test_untested_conditions_say_so(tmp_path):
     assert _row(rows, "C5")["verdict"] == "not tested" and _row(rows, "C6")["verdict"] == "not tested"
     assert _row(rows, "C3")["verdict"] == "reproduced"  # 0.7 vs 1.0: -30 %
     md = markdown(rows)
-    assert "| spined_dog | mujoco | sine | impedance |" in md and "Rules:" in md
+    assert "| spined_dog | mujoco | sine | impedance |" in md
+    assert "this project's reading, and the rules:" in md
 
 
 def test_fully_fallen_cells_plot_as_fallen(tmp_path):
@@ -146,3 +164,87 @@ def test_a_commanded_speed_is_judged_within_three_cm_per_s():
     assert cell(0.86, COMMANDED_SPEED_TOLERANCE_M_S).off_speed
     assert not cell(0.88, COMMANDED_SPEED_TOLERANCE_M_S).off_speed
     assert not cell(0.86, 0.05).off_speed
+
+
+JUDGED = ("C1", "C3", "F1")  # what a flat panel of `make` (no CoT_elec, no low speed, no slope) can judge
+
+
+def test_a_one_seed_study_is_not_tested_n_below_minimum(tmp_path):
+    """One seed per cell, every cell on speed and standing: nothing is judged, and the rows say it is n."""
+    rows = evaluate(make(tmp_path, n_seeds=1, spines=("rigid", "rigid-impedance", "impedance", "passive")))
+    for claim in JUDGED:
+        for spine in ("impedance", "passive"):
+            assert _row(rows, claim, spine)["verdict"] == NOT_TESTED_N, _row(rows, claim, spine)
+    assert {r["verdict"] for r in rows} <= {"not tested", NOT_TESTED_N}
+
+
+@pytest.mark.parametrize("n_seeds", [MIN_SEEDS - 1, MIN_SEEDS])
+def test_the_minimum_n_is_the_boundary(tmp_path, n_seeds):
+    """One seed short of the minimum: not tested (n < minimum); at the minimum the same data are judged."""
+    rows = evaluate(make(tmp_path, n_seeds=n_seeds, spread=0.05))
+    judged = [_row(rows, c)["verdict"] for c in JUDGED]
+    if n_seeds < MIN_SEEDS:
+        assert judged == [NOT_TESTED_N] * len(JUDGED)
+    else:
+        assert NOT_TESTED_N not in judged and _row(rows, "C3")["verdict"] == "reproduced", judged
+
+
+def test_the_tour_study_is_not_tested_n_below_minimum(tmp_path):
+    """The README's tour (studies/tour.toml: one seed of 4 s) reported from records shaped like its own,
+    every cell on speed: its report judges no claim."""
+    spec = tomllib.loads((ROOT / "studies" / "tour.toml").read_text())
+    n_seeds = spec["study"]["seeds"]
+    assert isinstance(n_seeds, int) and n_seeds < MIN_SEEDS
+    hashes = []
+    for spine in spec["grid"]["spine"]:
+        for seed in range(n_seeds):
+            cfg = {**spec["scenario"], "spine": spine, "seed": seed}
+            if spine.startswith("rigid"):
+                cfg = {k: v for k, v in cfg.items() if k not in ("kx", "dx")}
+            cot = 0.7 if spine == "impedance" else 1.0
+            m = {"fell": False, "speed_m_s": cfg["speed"], "cot_pos_total": cot, "cot_elec_total": 2.0}
+            h = f"t{len(hashes):03d}"
+            write_record(tmp_path / "trials", {"hash": h, "config": cfg, "status": "ok", "metrics": m})
+            hashes.append(h)
+    (tmp_path / "summary.json").write_text(json.dumps({"name": "tour", "hashes": hashes}))
+    rows = evaluate(analyse(load_trials(tmp_path)[1]))
+    for claim in ("C1", "C3", "C3e", "F1"):
+        assert _row(rows, claim)["verdict"] == NOT_TESTED_N, _row(rows, claim)
+    assert not [r for r in rows if not r["verdict"].startswith("not tested")]
+
+
+def test_each_claim_quotes_its_source_and_the_rule_matches_the_words():
+    """Every rule has its source's words; the ranges a rule tests are the ones its quote states."""
+    assert set(SOURCES) == set(RULES)
+    for c, (src, words, reading) in SOURCES.items():
+        assert src and reading
+        if c != "F1":
+            assert words and len(words) < 200 and ("README" in src or "2510.01984 v3" in src)
+    assert SOURCES["F1"][1] is None and "own finding" in SOURCES["F1"][0]
+
+    def rng(text):
+        return [tuple(float(x) for x in m) for m in re.findall(r"(\d+)-(\d+) N", text)]
+
+    assert rng(SOURCES["C1"][1]) == [C1_K]
+    assert rng(SOURCES["C2"][1]) == [C2_K, C2_D] and "(70-80 mm)" in SOURCES["C2"][1]
+    assert rng(SOURCES["C5"][1]) == [C5_K] and rng(SOURCES["C6"][1]) == [C6_K]
+    assert f"{-C3_SAVING_PCT:.0f}% at 0.9 m/s" in SOURCES["C3"][1] == SOURCES["C3e"][1]
+
+
+def test_claims_md_states_its_multiplicity_and_every_interval_has_its_n(tmp_path):
+    rows = evaluate(make(tmp_path, Ls=(0.06, 0.075, 0.12), spread=0.05))
+    m = multiplicity(rows)
+    n = sum(not r["verdict"].startswith("not tested") for r in rows)
+    assert n >= 4 and m["verdicts"] == n and m["expected_false_verdicts"] == pytest.approx(0.05 * n)
+    md = markdown(rows)
+    assert f"This report gives {n} verdicts" in md and "no family-wise correction" in md
+    assert f"about {0.05 * n:.1f} of the {n} verdicts can be wrong by chance" in md
+    for r in rows:
+        if "[" in r["finding"]:  # an interval is shown: so is its number of seeds
+            assert re.search(r"n = \d+(-\d+)? seeds", r["finding"]), r["finding"]
+    for c, (_, words, _) in SOURCES.items():
+        if words:
+            assert f'- {c}: "{words}"' in md
+    doc = json.loads((write_report(tmp_path, n_boot=50) and tmp_path / "report" / "claims.json").read_text())
+    assert doc["multiplicity"]["verdicts"] == n and doc["claims"]["C1"]["source_words"] == SOURCES["C1"][1]
+    assert all(r["source_words"] == SOURCES[r["claim"]][1] for r in doc["rows"])
