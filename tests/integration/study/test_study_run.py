@@ -93,7 +93,7 @@ def test_failures_are_recorded_and_counted(tmp_path, monkeypatch):
     def boom(config):
         raise RuntimeError(f"cannot bound at kx={config.get('kx')}")
 
-    monkeypatch.setattr(executors, "trial_function", lambda: boom)
+    monkeypatch.setattr(executors, "trial_function", lambda name=executors.TRIAL: boom)
     s = run_study(tiny_spec(), tmp_path, workers=0, progress=False)
     assert (s.executed, s.failed) == (3, 3)
     recs = [read_record(p) for p in (tmp_path / "trials").glob("*.json")]
