@@ -193,7 +193,8 @@ def panel_name(key: tuple, varied: set[str]) -> str:
         parts.append(f"matched{d['match_speed']:g}mps")
     if "slope" in d:
         parts.append(f"slope{d['slope']:g}")
-    parts += [f"{k}{v}" for k, v in key if k in varied and k not in ("gait", "speed", "slope", "match_speed")]
+    parts += [f"{k}{v}" for k, v in key if k in varied and k not in ("gait", "speed", "slope")
+              and not k.startswith("match_")]  # the calibration's settings are in the spec, not the name
     return re.sub(r"[^A-Za-z0-9_.+-]", "_", "_".join(parts))
 
 

@@ -455,7 +455,8 @@ def write_plots(res: dict, out: Path, fn: dict, plotted: tuple[str, ...]) -> lis
     paths: list[Path] = []
     for panel in res["panels"]:
         name = panel["panel"]
-        for m in [m for m in res["metrics"] if m in plotted]:
+        defined = {c.metric for c in res["cells"] if c.panel == name and c.est is not None}
+        for m in [m for m in res["metrics"] if m in plotted and m in defined]:  # no CoT_elec, no plot
             for p in (
                 plot_heatmap(panel, m, res["cells"], out / f"heatmap_{name}_{m}.png"),
                 plot_vs_k(panel, m, res["cells"], fn, out / f"cot_vs_k_{name}_{m}.png"),

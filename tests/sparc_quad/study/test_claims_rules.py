@@ -248,3 +248,17 @@ def test_claims_md_states_its_multiplicity_and_every_interval_has_its_n(tmp_path
     doc = json.loads((write_report(tmp_path, n_boot=50) and tmp_path / "report" / "claims.json").read_text())
     assert doc["multiplicity"]["verdicts"] == n and doc["claims"]["C1"]["source_words"] == SOURCES["C1"][1]
     assert all(r["source_words"] == SOURCES[r["claim"]][1] for r in doc["rows"])
+
+
+def test_c3e_says_when_cot_elec_is_not_defined_for_the_robot(tmp_path):
+    from sparc_quad.study.claims import evaluate
+    from sparc_quad.study.records import load_records
+
+    make(tmp_path, spines=("rigid", "rigid-impedance", "impedance", "passive"))
+    for rec in load_records(tmp_path / "trials"):  # a robot without winding constants: CoT_elec is NaN
+        rec["metrics"]["cot_elec_total"] = float("nan")
+        write_record(tmp_path / "trials", rec)
+    rows = evaluate(analyse(load_trials(tmp_path)[1]))
+    row = _row(rows, "C3e")
+    assert row["verdict"] == "not tested" and "not defined for this robot" in row["finding"]
+    assert _row(rows, "C3")["verdict"] != "not tested"  # CoT_pos is still judged
