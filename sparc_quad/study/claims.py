@@ -330,8 +330,8 @@ def _c3(analysis, ref, family_panels, spine, base, metric: str, claim: str) -> d
     cs = [c for n in names for c in _cells(analysis, n, spine, metric)]
     if metric == ELEC and cs and all(c.est is None for c in cs) and any(c.n > c.n_fell for c in cs):
         return {**base, "claim": claim, "verdict": "not tested",
-                "finding": "CoT_elec is not defined for this robot: its leg actuators' winding losses are not "
-                "known (metrics: the host's winding constants), so no trial has a value"}
+                "finding": "CoT_elec is not defined for this robot: its leg actuators' winding losses are "
+                "not known (metrics: the host's winding constants), so no trial has a value"}
     best, _, left = best_of(cs)
     if best is None:
         return {**base, "claim": claim, "verdict": _untested(left), "finding": _why_untested(cs, left)}
