@@ -48,7 +48,8 @@ SIM_S_PER_CPU_S = 5.0
 
 def estimate_hours(spec, workers: int | None) -> float:
     """Wall hours of a spec's trials (counted before expansion, `Spec.size`) on `workers` processes, at the
-    longest duration it asks for; raibert-opt counts its search's evaluations per cell."""
+    longest duration it asks for; raibert-opt counts its search's evaluations per cell, a matched-speed
+    study its calibration (at most match_seeds x match_iterations trials per cell)."""
     from sparc_quad.study.executors import default_workers
 
     def values(key: str, default):
@@ -61,6 +62,12 @@ def estimate_hours(spec, workers: int | None) -> float:
         per_trial += math.prod(max(values(k, d)) for k, d in (("popsize", 6), ("iterations", 5),
                                                                ("opt_restarts", 2), ("opt_trial_seeds", 2),
                                                                ("opt_duration", 6.0)))
+    if "match_speed" in spec.base or "match_speed" in spec.grid:  # each cell's calibration, once per cell
+        from sparc_quad.study.speed_match import DEFAULTS
+
+        cal = max(values("match_seeds", DEFAULTS["match_seeds"])) * max(
+            values("match_iterations", DEFAULTS["match_iterations"]))
+        per_trial += cal * max(values("duration", 10.0)) / len(spec.seeds)
     cpu_s = spec.size() * per_trial / SIM_S_PER_CPU_S
     return cpu_s / max(1, workers or default_workers()) / 3600.0
 

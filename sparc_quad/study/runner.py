@@ -114,11 +114,7 @@ def run_study(
             bar = tqdm(total=len(todo), unit="trial", desc=spec.name, mininterval=2.0, smoothing=0.1)
         for rec in stream:
             rec["config"] = {k: v for k, v in rec["config"].items() if k != "matched"}
-            try:
-                write_record(trials_dir, rec)
-            except OSError as exc:
-                raise StudyWriteError(exc.errno, f"cannot write a record in {trials_dir} "
-                                                 f"({exc.strerror or exc})") from None
+            _save(trials_dir, rec)
             records[rec["hash"]] = rec
             summary.executed += 1
             if rec["status"] != "ok":
@@ -131,11 +127,7 @@ def run_study(
         summary.interrupted = True
         raise
     finally:
-        close = getattr(stream, "close", None)
-        if close is not None:
-            close()
-        if bar is not None:
-            bar.close()
+        _close(stream, bar)
         summary.wall_s = time.perf_counter() - t0
         summary.failed = sum(1 for r in records.values() if r["status"] != "ok")
         try:
@@ -153,6 +145,24 @@ def run_study(
             raise StudyWriteError(exc.errno, f"cannot write the tables in {out} ({exc.strerror or exc})") \
                 from None
     return summary
+
+
+def _save(folder: Path, rec: dict) -> None:
+    """Write one record; a full disk or a vanished folder is one line naming the folder."""
+    try:
+        write_record(folder, rec)
+    except OSError as exc:
+        raise StudyWriteError(exc.errno, f"cannot write a record in {folder} ({exc.strerror or exc})") \
+            from None
+
+
+def _close(stream, bar) -> None:
+    """End an executor's stream (its workers stop now) and its progress bar."""
+    close = getattr(stream, "close", None)
+    if close is not None:
+        close()
+    if bar is not None:
+        bar.close()
 
 
 def _cells_to_calibrate(todo: list, folder: Path, version: str) -> dict:
@@ -189,11 +199,7 @@ def _calibrate(stream, cells: dict, folder: Path, name: str, progress: bool) -> 
         bar = tqdm(total=len(cells["todo"]), unit="cell", desc=f"{name}: calibrating speed", mininterval=2.0)
     try:
         for rec in stream:
-            try:
-                write_record(folder, rec)
-            except OSError as exc:
-                raise StudyWriteError(exc.errno, f"cannot write a record in {folder} "
-                                                 f"({exc.strerror or exc})") from None
+            _save(folder, rec)
             if rec["status"] == "ok":
                 cells["done"][rec["hash"]] = rec["metrics"]
             else:
@@ -202,11 +208,7 @@ def _calibrate(stream, cells: dict, folder: Path, name: str, progress: bool) -> 
             if bar is not None:
                 bar.update(1)
     finally:
-        close = getattr(stream, "close", None)
-        if close is not None:
-            close()
-        if bar is not None:
-            bar.close()
+        _close(stream, bar)
 
 
 def _with_calibration(job: tuple, cells: dict) -> tuple:

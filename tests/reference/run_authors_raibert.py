@@ -64,7 +64,6 @@ import contextlib
 import hashlib
 import io
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -73,6 +72,11 @@ import tempfile
 import types
 import xml.etree.ElementTree as ET
 from pathlib import Path
+
+try:  # shared with gait A's runner: as a module of tests.reference, or as a script beside it
+    from tests.reference.run_authors_released import _project_on_path, _rpy_zyx, apply_patches
+except ImportError:
+    from run_authors_released import _project_on_path, _rpy_zyx, apply_patches
 
 SIM_DIR = "mujoco_simulation"
 BARD_COMMIT = "fd70dc4"
@@ -101,14 +105,6 @@ def patches(speed_m_s: float, locked: bool, duration_s: float) -> list[tuple[str
     return out
 
 
-def apply_patches(sim_dir: Path, edits: list[tuple[str, str, str, int]]) -> None:
-    for name, old, new, count in edits:
-        path = sim_dir / name
-        text = path.read_text()
-        found = text.count(old)
-        if found != count:
-            raise SystemExit(f"patch anchor {old!r} found {found} times in {name}, expected {count}")
-        path.write_text(text.replace(old, new))
 
 
 def copy_sources(src: Path, dest: Path) -> dict[str, str]:
@@ -154,11 +150,6 @@ def extract_bard(repo: Path, commit: str, dest: Path) -> None:
 
 # ----------------------------------------------------------------------------------- driver (their venv)
 
-def _rpy_zyx(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return roll, pitch, yaw
 
 
 def _driver(sim_dir: Path, record_s: float, out: Path) -> None:
@@ -301,10 +292,6 @@ def run_case(src: Path, bard_src: Path, venv: Path, speed: float, locked: bool, 
 
 # ------------------------------------------------------------------------------------ the project's port
 
-def _project_on_path() -> None:
-    root = str(Path(__file__).resolve().parents[2])
-    if root not in sys.path:
-        sys.path.insert(0, root)
 
 
 def run_port(speed: float, locked: bool, duration_s: float):

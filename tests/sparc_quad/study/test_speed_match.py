@@ -149,3 +149,13 @@ def test_a_failed_calibration_fails_its_trials_naming_it(plant, tmp_path, monkey
     assert s.failed == 2
     recs = [json.loads(p.read_text()) for p in (tmp_path / "trials").glob("*.json")]
     assert all("calibration failed" in r["error"] and "engine exploded" in r["error"] for r in recs)
+
+
+def test_the_estimate_counts_the_calibration():
+    from sparc_quad.cli.study import estimate_hours
+
+    plain = parse_spec({"study": {"seeds": 10}, "scenario": {k: v for k, v in CELL.items()
+                                                              if not k.startswith("match_")}}, check=False)
+    matched = parse_spec({"study": {"seeds": 10}, "scenario": CELL}, check=False)
+    # 10 seeds + at most 2 calibration seeds x 6 points per cell
+    assert estimate_hours(matched, 1) == pytest.approx(estimate_hours(plain, 1) * (10 + 12) / 10)
