@@ -68,6 +68,7 @@ def run_case(channel: str, seconds: float, rate: float, d: Path) -> dict:
     stop = d / f"{tag}.stop"
     script = f"""set -e
 {SETUP}export PYTHONPATH={shlex.quote(str(ROOT))}
+trap 'touch {stop}' EXIT
 {py} {me} --role flood --channel {channel} --rate {rate} --stop {stop} --out {d}/{tag}_flood.json &
 FLOOD=$!
 {py} -m sparc_quad spine-node --clock realtime --rate 1000 --summary {d}/{tag}_node.json > /dev/null \
@@ -76,7 +77,9 @@ NODE=$!
 {py} -m sparc_quad bench-robot --clock realtime --experiment hold --duration {seconds} --out {d}/{tag} \
     > /dev/null 2> {d}/{tag}_robot.err
 kill -TERM $NODE
-wait $NODE
+NODE_RC=0
+wait $NODE || NODE_RC=$?
+echo $NODE_RC > {d}/{tag}_node.rc
 touch {stop}
 wait $FLOOD
 """
@@ -86,6 +89,10 @@ wait $FLOOD
         errs = "\n".join(f"--- {p.name}\n{p.read_text()[-2000:]}" for p in d.glob(f"{tag}*.err"))
         raise SystemExit(f"flood case {channel} failed (rc {r.returncode}):\n{r.stderr}\n{errs}")
     node = json.loads((d / f"{tag}_node.json").read_text())
+    # the robot ends first: a node still running then latches HEARTBEAT_LOST and exits 3, which is expected
+    node_rc = int((d / f"{tag}_node.rc").read_text())
+    if node_rc not in (0, 3) or (node_rc == 3 and node.get("ended_latched") != "HEARTBEAT_LOST"):
+        raise SystemExit(f"flood case {channel}: the node exited {node_rc} ({node.get('ended_latched')})")
     robot = json.loads((d / tag / "summary.json").read_text())
     sent = json.loads((d / f"{tag}_flood.json").read_text())
     a = np.load(d / tag / "bench_robot.npz")

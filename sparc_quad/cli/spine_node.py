@@ -299,6 +299,7 @@ def _run(args: argparse.Namespace, stop: Stop, raising: list[bool]) -> int:
                "repeated_ticks": node.repeated_ticks,
                # lockstep: ticks whose torso state came after their feedback, and those run without it
                "lockstep_torso_waits": io.torso_waits, "lockstep_torso_missing": node.lockstep_torso_missing,
+               "lockstep_opening_incomplete": node.lockstep_opening_incomplete,
                "bus_faults": list(getattr(bus, "latched_faults", [])),  # latched in the motor backend
                # messages superseded by a newer one before the node looked (a flood shows here)
                "dropped": {**io.inbox.dropped, **({"SPARC_MOTOR_FEEDBACK": bus.dropped}

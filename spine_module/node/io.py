@@ -8,7 +8,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import deque
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import lcm
 
@@ -160,6 +160,12 @@ def _has_torso(inbox: Inbox, seq: int) -> bool:
     return t is not None and t.seq >= seq
 
 
+def opening_inputs_in(inbox: Inbox, seq: int) -> bool:
+    """Whether a robot's opening tick is complete: a torso state of tick `seq` or later, a heartbeat and a
+    command (a robot publishes all three with its first motor feedback)."""
+    return _has_torso(inbox, seq) and inbox.heartbeat is not None and inbox.command is not None
+
+
 class NodeIO:
     """Base: an inbox and two outputs. Subclasses move bytes."""
 
@@ -193,6 +199,10 @@ class NodeIO:
         """Whether the inbox holds a torso state of tick `seq` or later, waiting up to `timeout_s` for it
         where the transport can deliver it late. In-process delivery is synchronous: nothing to wait for."""
         return _has_torso(self.inbox, seq)
+
+    def await_inbox(self, ready: Callable[[Inbox], bool], timeout_s: float) -> bool:
+        """Whether `ready(inbox)`, waiting up to `timeout_s` where the transport can deliver late."""
+        return ready(self.inbox)
 
     def publish_state(self, state: SpineState) -> None:
         raise NotImplementedError
@@ -310,14 +320,21 @@ class LcmNodeIO(NodeIO):
         """LCM keeps the order of one socket only: with `mpudpm` (a socket per channel) a tick's motor
         feedback can be dispatched before the torso state the robot published ahead of it (seen at load:
         68 of 2500 lockstep ticks ran on the previous tick's q1). Dispatch until it is in, or timeout_s."""
-        inbox = self.inbox
-        if _has_torso(inbox, seq):
+        if _has_torso(self.inbox, seq):
             return True
         self.torso_waits += 1
+        return self.await_inbox(lambda inbox: _has_torso(inbox, seq), timeout_s)
+
+    def await_inbox(self, ready: Callable[[Inbox], bool], timeout_s: float) -> bool:
+        """Dispatch until `ready(inbox)`, or for `timeout_s`: LCM hands messages over from its receive
+        thread, so a message sent before the one just dispatched may not be dispatchable yet."""
+        inbox = self.inbox
+        if ready(inbox):
+            return True
         deadline = time.perf_counter() + timeout_s
         while True:
             dispatch(self.lc, 1)  # ms: one message, or a 1 ms wait
-            if _has_torso(inbox, seq):
+            if ready(inbox):
                 return True
             if time.perf_counter() >= deadline:
                 return False

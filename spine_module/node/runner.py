@@ -19,6 +19,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
+from functools import partial
 
 import numpy as np
 
@@ -30,7 +31,7 @@ from spine_module.messages import channels as ch
 from spine_module.messages.types import MODES
 from spine_module.node.clocks import PeriodStats, RealTimeClock
 from spine_module.node.controllers import Controllers
-from spine_module.node.io import NodeIO
+from spine_module.node.io import NodeIO, opening_inputs_in
 
 log = logging.getLogger("spine_module.node")
 
@@ -125,6 +126,7 @@ class SpineNode:
         self.last_command: MotorCommand | None = None
         self.repeated_ticks = 0
         self.lockstep_torso_missing = 0  # lockstep ticks run without their own torso state (run_lockstep)
+        self.lockstep_opening_incomplete = False  # first lockstep tick ran without torso/heartbeat/command
         self.tick_errors = 0
         self._ramp_key: float | None = None  # ramp start time the ramp origin below belongs to
         self._ramp_from: np.ndarray | None = None
@@ -620,7 +622,9 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
 
     A robot that publishes each tick's torso state with the tick's seq (as `robot_side` does) gets the
     q1 of that very tick on every tick, whatever order the transport delivers the two in
-    (LOCKSTEP_TORSO_WAIT_S); `node.lockstep_torso_missing` counts the ticks that ran without it."""
+    (LOCKSTEP_TORSO_WAIT_S); `node.lockstep_torso_missing` counts the ticks that ran without it. The first
+    tick also waits for the robot's opening heartbeat and command (else it would run disabled where an
+    in-process node runs the commanded mode); `node.lockstep_opening_incomplete` says it ran without."""
     stopped = _stopper(stop)
     t_wall0 = time.monotonic()
     ticks = 0
@@ -647,7 +651,10 @@ def run_lockstep(node: SpineNode, duration_s: float | None = None,
             if duration_s is not None and now - first > duration_s:
                 break
             newest = inbox.torso or node.torso
-            if (newest is not None and newest.seq == fb.seq - 1
+            if not ticks:  # the opening tick: its torso state, heartbeat and command may still be on the way
+                if not node.io.await_inbox(partial(opening_inputs_in, seq=fb.seq), LOCKSTEP_TORSO_WAIT_S):
+                    node.lockstep_opening_incomplete = True
+            elif (newest is not None and newest.seq == fb.seq - 1
                     and not node.io.await_torso(fb.seq, LOCKSTEP_TORSO_WAIT_S)):
                 node.lockstep_torso_missing += 1
             node.safe_tick(now, fb)

@@ -36,8 +36,9 @@ NODE=$!
 {py} -m sparc_quad bench-robot --clock realtime --experiment static --kx {K} --period {PERIOD} --cycles 1 \
     --out {tmp_path} > /dev/null 2> {tmp_path}/robot.err
 kill -TERM $NODE
-wait $NODE
-echo $? > {tmp_path}/node.rc
+NODE_RC=0
+wait $NODE || NODE_RC=$?
+echo $NODE_RC > {tmp_path}/node.rc
 """
     r = run_in_netns(script, ROOT)
     assert r.returncode == 0, r.stderr + (tmp_path / "node.err").read_text()

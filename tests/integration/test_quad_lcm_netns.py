@@ -82,6 +82,7 @@ def test_every_tick_answered_and_node_used_the_estimators_q1(lcm_run):
     ticks = round(DURATION * 1000)
     assert node["ticks"] == ticks and node["rejected"] == 0, logs
     assert node["lockstep_torso_missing"] == 0  # each tick ran on its own torso state (mpudpm may reorder)
+    assert not node["lockstep_opening_incomplete"]  # and the first on the robot's opening command
     if not states_asked:
         assert not (out / "bound" / "node_states.npz").exists()  # not asked for: not received
         return

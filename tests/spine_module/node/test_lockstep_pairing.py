@@ -8,49 +8,63 @@ import threading
 import numpy as np
 
 from spine_module.buses.base import MotorFeedback
-from spine_module.messages import Heartbeat, SpineCommand, TorsoState, channels
+from spine_module.messages import Fault, Heartbeat, SpineCommand, TorsoState, channels
 from spine_module.node import InProcessNodeIO, run_lockstep
 from tests.node_harness import DT, Harness
 
 TICKS = 30
 
 
-class LateTorsoIO(InProcessNodeIO):
-    """A transport on which a tick's torso state arrives after its motor feedback, before the next tick's:
-    it is held until the robot sends the next one, or until the node waits for it (`await_torso`)."""
+class LateIO(InProcessNodeIO):
+    """A transport on which a tick's messages on `late` channels arrive after its motor feedback, before
+    the next tick's: they are held until the robot sends the next one on that channel, or until the node
+    waits for them (`await_torso`, `await_inbox`)."""
 
-    def __init__(self) -> None:
+    def __init__(self, late=(channels.TORSO_STATE,)) -> None:
         super().__init__()
         self._lock = threading.Lock()
-        self._in_flight: list[bytes] = []
+        self._late = frozenset(late)
+        self._in_flight: dict[str, bytes] = {}
 
     def deliver(self, channel: str, data: bytes) -> None:
-        if channel != channels.TORSO_STATE:
+        if channel not in self._late:
             super().deliver(channel, data)
             return
         with self._lock:
-            arrived, self._in_flight = self._in_flight, [data]
-        for d in arrived:
-            super().deliver(channels.TORSO_STATE, d)
+            arrived = self._in_flight.pop(channel, None)
+            self._in_flight[channel] = data
+        if arrived is not None:
+            super().deliver(channel, arrived)
+
+    def _release(self) -> None:
+        with self._lock:
+            arrived, self._in_flight = self._in_flight, {}
+        for channel, d in arrived.items():
+            super().deliver(channel, d)
 
     def await_torso(self, seq: int, timeout_s: float) -> bool:
         if not super().await_torso(seq, timeout_s):
             self.torso_waits += 1
-            with self._lock:
-                arrived, self._in_flight = self._in_flight, []
-            for d in arrived:
-                super().deliver(channels.TORSO_STATE, d)
+            self._release()
         return super().await_torso(seq, timeout_s)
+
+    def await_inbox(self, ready, timeout_s: float) -> bool:
+        if not ready(self.inbox):
+            self.inbox_waits += 1
+            self._release()
+        return ready(self.inbox)
+
+    inbox_waits = 0
 
 
 def _q1(k: int) -> float:
     return 0.001 * (k + 1)
 
 
-def _run(torso_seq=lambda k: k, torso_until: int = TICKS) -> Harness:
+def _run(torso_seq=lambda k: k, torso_until: int = TICKS, late=(channels.TORSO_STATE,)) -> Harness:
     """Lockstep with a robot thread; torso state k carries q1 = _q1(k) and seq torso_seq(k)."""
     h = Harness()
-    h.io = LateTorsoIO()
+    h.io = LateIO(late)
     h.node.io = h.io
     answers = []
 
@@ -81,9 +95,37 @@ def _q1_per_tick(h: Harness) -> np.ndarray:
 def test_each_tick_runs_on_its_own_torso_state_when_it_arrives_after_the_feedback():
     h = _run()
     q1 = _q1_per_tick(h)
-    # the first tick cannot know that the robot pairs them; from the second on, each tick has its own q1
-    np.testing.assert_array_equal(q1[1:], [_q1(k) for k in range(1, TICKS)])
-    assert h.io.torso_waits == TICKS - 1 and h.node.lockstep_torso_missing == 0
+    # the first tick waits for the robot's opening messages, the others for their own torso state
+    np.testing.assert_array_equal(q1, [_q1(k) for k in range(TICKS)])
+    assert h.io.inbox_waits == 1 and h.io.torso_waits == TICKS - 1 and h.node.lockstep_torso_missing == 0
+    assert not h.node.lockstep_opening_incomplete
+
+
+def test_the_first_tick_runs_the_commanded_mode_when_heartbeat_and_command_come_after_the_feedback():
+    late = _run(late=(channels.HEARTBEAT_ROBOT, channels.SPINE_COMMAND))
+    on_time = _run(late=())
+    assert late.io.inbox_waits == 1 and on_time.io.inbox_waits == 0
+    assert not late.node.lockstep_opening_incomplete
+    assert [s.mode for s in late.io.states] == [s.mode for s in on_time.io.states]
+    assert not late.io.states[0].faults & Fault.WAITING
+
+
+def test_a_robot_that_sends_no_command_costs_the_first_tick_one_wait():
+    h = Harness()
+    h.io = LateIO(())
+    h.node.io = h.io
+
+    def robot():
+        h.io.send_torso(TorsoState(q1=0.1, stamp_s=0.0, seq=0))
+        h.link.robot.publish_feedback(MotorFeedback(q=h.q.copy(), dq=np.zeros(3), tau=np.zeros(3),
+                                                    stamp_s=0.0, seq=0))
+        h.link.robot.take_command(5.0)
+
+    th = threading.Thread(target=robot)
+    th.start()
+    run_lockstep(h.node, max_ticks=1, idle_timeout_s=5.0)
+    th.join()
+    assert h.node.lockstep_opening_incomplete and h.io.states[0].faults & Fault.WAITING
 
 
 def test_a_robot_that_stops_sending_torso_states_costs_one_wait():
