@@ -239,6 +239,12 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput(missing)
     cfg = config_from_args(args, scenario)
     spine = None
+    if args.lcm and cfg.spine_params is not None:
+        # `spine-node` runs the SPARC module's spine model; it would render this host's spine with the
+        # wrong links and masses (and the robot side would read its task pose with them too)
+        raise BadInput(f"--lcm: the spine node process models the SPARC module's spine, not "
+                       f"{scenario.host}'s (other link lengths and masses); run this host's spine node in "
+                       "process with --spine-path node")
     if args.lcm:
         from sparc_quad.robot_side.quad import NodeSpine
         from spine_module.node import realtime

@@ -115,20 +115,22 @@ def bound_config(s: Scenario) -> BoundConfig:
 
 
 def _check_node_targets(cfg: BoundConfig) -> None:
-    """The spine node accepts only targets its command message admits (the SPARC module's workspace,
+    """The spine node refuses targets outside the workspace of the spine model it runs (this host's,
     spine_module.workspace): a run whose targets lie outside it would have the node refuse every command
     and stay disabled, so it is refused here, naming spine_path."""
-    from spine_module.workspace import unreachable
+    from spine_module import params as P
+    from spine_module.workspace import Workspace
 
     sch = cfg.spine_schedule
     if sch is None:
         return
+    ws = Workspace.of(cfg.spine_params if cfg.spine_params is not None else P.DEFAULT_SPINE)
     for x in {sch.x_d0_m, sch.x_d1_m}:
-        why = unreachable(x, sch.z_d_m, sch.theta_d_rad)
+        why = ws.unreachable(x, sch.z_d_m, sch.theta_d_rad)
         if why is not None:
             raise ScenarioError("spine_path", f"node: the run's spine target ({x:g} m, {sch.z_d_m:g} m, "
-                                              f"{sch.theta_d_rad:g} rad) is {why} of the node's command "
-                                              "(the SPARC module's spine); use spine_path direct")
+                                              f"{sch.theta_d_rad:g} rad) is {why} of the node's spine "
+                                              "model; use spine_path direct")
 
 
 def spine_of(s: Scenario, cfg: BoundConfig):

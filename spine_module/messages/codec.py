@@ -30,7 +30,7 @@ from spine_module.messages.lcmt.sparc import (
 )
 from spine_module.messages.motor import MotorCommand, MotorFeedback
 from spine_module.messages.types import MODES, Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
-from spine_module.workspace import unreachable
+from spine_module.workspace import Workspace
 
 LCM_TYPES = (torso_state_t, spine_command_t, spine_state_t, motor_command_t, motor_feedback_t, heartbeat_t)
 
@@ -104,15 +104,23 @@ TORSO_RANGES = {
 # checked only when their validity flag is set (else replaced by 0): ddq1 by ddq1_valid, base_accel by
 # base_accel_valid
 _TORSO_GATED = {"ddq1": "ddq1_valid", "base_accel": "base_accel_valid"}
-COMMAND_RANGES = {
-    "x_d": [Range(0.0, _REACH, "m"), Range(-_REACH, _REACH, "m"), Range(-_PI, _PI, "rad")],
-    "dx_d": [Range(-5.0, 5.0, "m/s"), Range(-5.0, 5.0, "m/s"), Range(-50.0, 50.0, "rad/s")],
-    "ddx_d": [Range(-500.0, 500.0, "m/s^2"), Range(-500.0, 500.0, "m/s^2"),
-              Range(-5000.0, 5000.0, "rad/s^2")],
-    "k": [Range(0.0, K_MAX[0], "N/m"), Range(0.0, K_MAX[1], "N/m"), Range(0.0, K_MAX[2], "N*m/rad")],
-    "d": [Range(0.0, D_MAX[0], "N*s/m"), Range(0.0, D_MAX[1], "N*s/m"), Range(0.0, D_MAX[2], "N*m*s/rad")],
-    "tau_ff": Range(-_TAU_MAX, _TAU_MAX, "N*m"),
-}
+
+
+def command_ranges(reach_m: float = _REACH) -> dict[str, Range | list[Range]]:
+    """A spine command's per-field ranges for a spine whose straight pose reaches `reach_m` along x."""
+    return {
+        "x_d": [Range(0.0, reach_m, "m"), Range(-reach_m, reach_m, "m"), Range(-_PI, _PI, "rad")],
+        "dx_d": [Range(-5.0, 5.0, "m/s"), Range(-5.0, 5.0, "m/s"), Range(-50.0, 50.0, "rad/s")],
+        "ddx_d": [Range(-500.0, 500.0, "m/s^2"), Range(-500.0, 500.0, "m/s^2"),
+                  Range(-5000.0, 5000.0, "rad/s^2")],
+        "k": [Range(0.0, K_MAX[0], "N/m"), Range(0.0, K_MAX[1], "N/m"), Range(0.0, K_MAX[2], "N*m/rad")],
+        "d": [Range(0.0, D_MAX[0], "N*s/m"), Range(0.0, D_MAX[1], "N*s/m"),
+              Range(0.0, D_MAX[2], "N*m*s/rad")],
+        "tau_ff": Range(-_TAU_MAX, _TAU_MAX, "N*m"),
+    }
+
+
+COMMAND_RANGES = command_ranges()  # the SPARC module's
 _CG = params.CYBERGEAR
 _POS_MAX = max(_CG.position_rad, _CG.position_table_rad)  # either scaling of the frames' position
 FEEDBACK_RANGES = {
@@ -352,43 +360,55 @@ _COMMAND = _LAYOUTS[spine_command_t]
 _C_UTIME, _C_SEQ, _C_MODE, _C_X_D, _C_DX_D, _C_DDX_D, _C_K, _C_D, _C_FRICTION, _C_TAU_FF, _C_RESET = (
     _COMMAND.index(f)[0] for f in ("utime", "seq", "mode", "x_d", "dx_d", "ddx_d", "k", "d",
                                    "friction_compensation", "tau_ff", "reset"))
-_COMMAND_BOUNDS = Bounds(spine_command_t, {**HEADER_RANGES, "mode": MODE_RANGE, **COMMAND_RANGES})
 
 
 # modes that act on x_d (JOINT_TORQUE too: if its commands stop, the node holds x_d in impedance mode)
 _TARGET_MODES = frozenset((int(Mode.IMPEDANCE), int(Mode.PD), int(Mode.JOINT_TORQUE)))
 
 
-def _check_target(channel: str, mode: int, x: float, z: float, theta: float) -> None:
-    """A target outside the spine's workspace (spine_module.workspace) would pin the joints at their limits
-    at full torque: refused, naming x_d, in the modes that use it."""
-    if mode in _TARGET_MODES:
-        why = unreachable(x, z, theta)
-        if why is not None:
-            raise MessageError(channel, "x_d", f"({x:g}, {z:g}, {theta:g}) {why}")
+class CommandDecoder:
+    """Spine commands for one spine: x_d within its reach and, in the modes that use it, inside its
+    workspace (a target outside would pin the joints at their limits at full torque: refused, naming x_d).
+    The module's `decode_command` is the SPARC module's; a node running another spine model decodes with
+    `CommandDecoder(that spine)` (`Inbox.decode_commands_for`)."""
+
+    def __init__(self, spine: params.SpineParams = params.DEFAULT_SPINE) -> None:
+        self.workspace = Workspace.of(spine)
+        self.bounds = Bounds(spine_command_t, {**HEADER_RANGES, "mode": MODE_RANGE,
+                                               **command_ranges(self.workspace.reach_m)})
+
+    def _check_target(self, channel: str, mode: int, x: float, z: float, theta: float) -> None:
+        if mode in _TARGET_MODES:
+            why = self.workspace.unreachable(x, z, theta)
+            if why is not None:
+                raise MessageError(channel, "x_d", f"({x:g}, {z:g}, {theta:g}) {why}")
+
+    def __call__(self, data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
+        vals = _COMMAND.unpack(data)
+        if vals is None:
+            return self.checked(data, channel)
+        v = self.bounds.check(channel, vals)
+        self._check_target(channel, vals[_C_MODE], *vals[_C_X_D:_C_X_D + 3])
+        return SpineCommand(MODES[vals[_C_MODE]], v[_C_X_D:_C_X_D + 3], v[_C_DX_D:_C_DX_D + 3],
+                            v[_C_DDX_D:_C_DDX_D + 3], v[_C_K:_C_K + 3], v[_C_D:_C_D + 3],
+                            vals[_C_FRICTION] != 0, v[_C_TAU_FF:_C_TAU_FF + 3], vals[_C_RESET] != 0,
+                            _s(vals[_C_UTIME]), vals[_C_SEQ])
+
+    def checked(self, data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
+        """The decoder field by field: the reference, and the path that names what is wrong."""
+        m = decode_raw(channel, data, spine_command_t)
+        v = self.bounds.check_message(channel, m)
+        self._check_target(channel, m.mode, *m.x_d)
+        return SpineCommand(mode=Mode(m.mode), x_d=v[_C_X_D:_C_X_D + 3], dx_d=v[_C_DX_D:_C_DX_D + 3],
+                            ddx_d=v[_C_DDX_D:_C_DDX_D + 3], k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
+                            friction_compensation=bool(m.friction_compensation),
+                            tau_ff=v[_C_TAU_FF:_C_TAU_FF + 3], reset=bool(m.reset), stamp_s=_s(m.utime),
+                            seq=m.seq)
 
 
-def decode_command(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
-    vals = _COMMAND.unpack(data)
-    if vals is None:
-        return decode_command_checked(data, channel)
-    v = _COMMAND_BOUNDS.check(channel, vals)
-    _check_target(channel, vals[_C_MODE], *vals[_C_X_D:_C_X_D + 3])
-    return SpineCommand(MODES[vals[_C_MODE]], v[_C_X_D:_C_X_D + 3], v[_C_DX_D:_C_DX_D + 3],
-                        v[_C_DDX_D:_C_DDX_D + 3], v[_C_K:_C_K + 3], v[_C_D:_C_D + 3], vals[_C_FRICTION] != 0,
-                        v[_C_TAU_FF:_C_TAU_FF + 3], vals[_C_RESET] != 0, _s(vals[_C_UTIME]), vals[_C_SEQ])
-
-
-def decode_command_checked(data: bytes, channel: str = channels.SPINE_COMMAND) -> SpineCommand:
-    """`decode_command` field by field: the reference, and the path that names what is wrong."""
-    m = decode_raw(channel, data, spine_command_t)
-    v = _COMMAND_BOUNDS.check_message(channel, m)
-    _check_target(channel, m.mode, *m.x_d)
-    return SpineCommand(mode=Mode(m.mode), x_d=v[_C_X_D:_C_X_D + 3], dx_d=v[_C_DX_D:_C_DX_D + 3],
-                        ddx_d=v[_C_DDX_D:_C_DDX_D + 3], k=v[_C_K:_C_K + 3], d=v[_C_D:_C_D + 3],
-                        friction_compensation=bool(m.friction_compensation),
-                        tau_ff=v[_C_TAU_FF:_C_TAU_FF + 3], reset=bool(m.reset), stamp_s=_s(m.utime),
-                        seq=m.seq)
+SPARC_COMMANDS = CommandDecoder()
+decode_command = SPARC_COMMANDS.__call__
+decode_command_checked = SPARC_COMMANDS.checked
 
 
 _HEARTBEAT = _LAYOUTS[heartbeat_t]

@@ -21,6 +21,11 @@ class Controllers:
     pd: Any  # eq. (5)
     _kin: Any = field(default=None, repr=False, kw_only=True)
 
+    @property
+    def spine(self) -> params.SpineParams:
+        """The spine the controllers model (the SPARC module's for a controller without a model)."""
+        return getattr(getattr(self.impedance, "model", None), "spine", params.DEFAULT_SPINE)
+
     def task_state(self, q: np.ndarray, dq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Task pose and velocity by forward kinematics, for modes that run no task controller."""
         model = getattr(self.impedance, "model", None)

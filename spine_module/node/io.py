@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator, Sequence
 
 import lcm
 
+from spine_module import params
 from spine_module.messages import (
     Heartbeat,
     MessageError,
@@ -87,9 +88,15 @@ class Inbox:
             ch: {"backwards": 0, "repeat": 0, "jump": 0} for ch in _INCOMING}
         self._last_seq: dict[str, int] = {}
         self._torso_resync: tuple[int, int] | None = None  # (last seq of a new torso sequence, its length)
+        self._decode = dict(_INCOMING)
+
+    def decode_commands_for(self, spine: params.SpineParams) -> None:
+        """Judge commands' targets by `spine`'s reach and workspace (the model the node runs)."""
+        self._decode[channels.SPINE_COMMAND] = (codec.decode_command if spine == params.DEFAULT_SPINE
+                                                else codec.CommandDecoder(spine))
 
     def offer_bytes(self, channel: str, data: bytes) -> None:
-        decode = _INCOMING.get(channel)
+        decode = self._decode.get(channel)
         if decode is None:
             return
         self.received += 1

@@ -98,6 +98,7 @@ class SpineNode:
         self.io = io
         self.cfg = config if config is not None else NodeConfig()
         io.instance = self.cfg.instance
+        io.inbox.decode_commands_for(controllers.spine)  # targets judged by the model it runs
         # safety state as plain values (`safety.supervise_values`); the `safety` property shows it as a
         # SafetyState
         self._sv = safety.Supervised()

@@ -81,15 +81,37 @@ def test_held_steps_bit_identical():
     assert held.series.tobytes() == full.series.tobytes()
 
 
-def test_node_path_refused_naming_it(capsys):
-    """Their target (x 0.367 m on their end effector) is outside the node's command workspace (the SPARC
-    module's spine): the node would refuse every command and stay disabled, so the run is refused first."""
+def test_node_path_runs_their_target_on_the_dogs_spine_model():
+    """Their target (x 0.367 m on their end effector) lies beyond the SPARC module's spine (0.361 m) but
+    inside the dog's: the node judges commands by the spine model it runs, so gait C runs through it, every
+    command accepted, in impedance mode, close to the direct path (quantised feedback, limits)."""
+    from sparc_quad.scenario.resolve import spine_of
+    from spine_module.messages import Mode
+    from spine_module.workspace import SPARC
+
+    s = Scenario(host="spined-dog", gait="authors-raibert", spine_path="node", engine="mujoco", duration=2.0,
+                 seed=1)
+    cfg = bound_config(s)
+    assert SPARC.unreachable(cfg.spine_schedule.x_d1_m, cfg.spine_schedule.z_d_m, 0.0) is not None
+    spine = spine_of(s, cfg)
+    the_node = spine.node  # the spine drops it when the run closes it
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        node = run_bound(cfg, spine=spine)
+    direct = _run(Scenario(host="spined-dog", gait="authors-raibert", engine="mujoco", duration=2.0, seed=1))
+    assert the_node.rejected_count == 0, the_node.rejected
+    modes = [st.mode for st in spine.states()]
+    assert len(modes) > 1000 and set(modes[len(modes) // 10:]) == {Mode.IMPEDANCE}, set(modes)
+    assert not node.metrics["fell"] and not direct.metrics["fell"]
+    assert node.metrics["distance_m"] == pytest.approx(direct.metrics["distance_m"], abs=0.05)
+
+
+def test_lcm_refused_for_the_dog_naming_it(capsys):
+    """`spine-node` (another process) runs the SPARC module's spine model: the dog over --lcm is refused
+    before anything is sent, not driven with the wrong links and masses."""
     from sparc_quad.cli import main
 
-    with pytest.raises(ScenarioError) as exc:
-        bound_config(Scenario(host="spined-dog", gait="authors-raibert", spine_path="node"))
-    assert exc.value.key == "spine_path"
-    assert main(["bound", "--host", "spined-dog", "--gait", "authors-raibert", "--spine-path", "node",
+    assert main(["bound", "--host", "spined-dog", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.1",
                  "--out", "/nonexistent-never-written"]) == 2
     err = capsys.readouterr().err
-    assert ("--spine-path" in err or "spine_path" in err) and "Traceback" not in err
+    assert "--lcm" in err and "spined-dog" in err and "Traceback" not in err

@@ -49,7 +49,7 @@ CASES = {
                   (codec.decode_heartbeat, codec.decode_heartbeat_checked)),
     spine_state_t: (channels.SPINE_STATE, codec.encode_state(SpineState()), (codec.decode_state,)),
 }
-BOUNDS = {torso_state_t: codec._TORSO_BOUNDS[1], spine_command_t: codec._COMMAND_BOUNDS,
+BOUNDS = {torso_state_t: codec._TORSO_BOUNDS[1], spine_command_t: codec.SPARC_COMMANDS.bounds,
           motor_feedback_t: codec._FEEDBACK_BOUNDS, motor_command_t: codec._MCMD_BOUNDS,
           heartbeat_t: codec._HEARTBEAT_BOUNDS, spine_state_t: codec._STATE_BOUNDS}
 

@@ -53,3 +53,41 @@ def test_closed_form_matches_the_models_kinematics():
         x = model.task_pose(np.concatenate(([0.0], q)))
         sols = np.array(joint_solutions(*x))
         assert np.min(np.max(np.abs(sols - q), axis=1)) < 1e-9, (q, sols)
+
+
+def _longer_spine() -> P.SpineParams:
+    """Another host's spine: the SPARC links 20 % longer, joints over +-1.5 rad."""
+    from dataclasses import replace
+
+    return P.SpineParams(links=tuple(replace(link, length_m=1.2 * link.length_m) for link in P.LINKS),
+                         lower_rad={**P.JOINT_LOWER_RAD, **dict.fromkeys(P.ACTUATED_JOINTS, -1.5)},
+                         upper_rad={**P.JOINT_UPPER_RAD, **dict.fromkeys(P.ACTUATED_JOINTS, 1.5)})
+
+
+def test_another_spines_workspace_is_its_own():
+    """Closed form against that spine's model; a target beyond the SPARC module's reach is inside it, and
+    a node running that model (its inbox) accepts it while the SPARC decoder refuses it."""
+    from spine_module.messages import channels
+    from spine_module.node.io import Inbox
+    from spine_module.workspace import SPARC, Workspace
+
+    spine = _longer_spine()
+    ws, model = Workspace.of(spine), SpineModel(spine=spine)
+    assert ws.reach_m == pytest.approx(1.2 * SPARC.reach_m)
+    rng = np.random.default_rng(4)
+    for _ in range(100):
+        q = rng.uniform(-1.5, 1.5, 3)
+        sols = np.array(ws.joint_solutions(*model.task_pose(np.concatenate(([0.0], q)))))
+        assert np.min(np.max(np.abs(sols - q), axis=1)) < 1e-9, q
+    target = (0.38, 0.0, 0.0)  # beyond 0.3614 m
+    assert SPARC.unreachable(*target) is not None and ws.unreachable(*target) is None
+    data = codec.encode_command(SpineCommand(mode=Mode.IMPEDANCE, x_d=np.array(target)))
+    with pytest.raises(MessageError, match="x_d"):
+        codec.decode_command(data)
+    assert codec.CommandDecoder(spine).checked(data).x_d[0] == pytest.approx(0.38)
+    inbox = Inbox()
+    inbox.offer_bytes(channels.SPINE_COMMAND, data)
+    assert inbox.command is None and inbox.rejected[channels.SPINE_COMMAND] == 1
+    inbox.decode_commands_for(spine)
+    inbox.offer_bytes(channels.SPINE_COMMAND, data)
+    assert inbox.command is not None and inbox.command.x_d[0] == pytest.approx(0.38)
