@@ -14,13 +14,17 @@ Keys a trial config adds (`[scenario]` or `[grid]` of a spec):
   match_seeds       calibration seeds, CALIBRATION_SEED0 .. + n - 1, disjoint from a study's reported
                     seeds so the value reported is not tuned on the trials that judge it (default 3)
   match_iterations  at most this many calibration points (default 6), each match_seeds trials long
+  match_spread      the standing calibration seeds of a point must agree within this, m/s (default 0.1)
   matched           the calibration result (a study computes it once per cell and passes it on)
 
 The calibration: a point is the mean speed over the calibration seeds that stand (a point where more than
-half fall has no speed). From the start value (the command at the target for `speed`, else the gait's
-value), the next value scales by target / achieved (speed proportional to the input, step at most x1.6)
-until the target is bracketed, then interpolates inside the bracket. The result is the point nearest the
-target, with `converged` saying whether it is within the tolerance.
+half fall has no speed, nor one whose standing seeds' speeds span more than match_spread: a gait that is
+bimodal by seed, some seeds bounding forward and others reversing, has a mean no seed runs; measured, gait C
+in pybullet at a 0.5 m/s command ran 0.35, 0.55 and 0.60 m/s on the three seeds and "converged" on their
+mean 0.503). Each point keeps its seeds' speeds. From the start value (the command at the target for
+`speed`, else the gait's value), the next value scales by target / achieved (speed proportional to the
+input, step at most x1.6) until the target is bracketed, then interpolates inside the bracket. The result
+is the point nearest the target, with `converged` saying whether it is within the tolerance.
 """
 
 from __future__ import annotations
@@ -35,11 +39,13 @@ from sparc_quad.scenario import ScenarioError
 from sparc_quad.study.fixed_trial import check_config as check_fixed
 from sparc_quad.study.fixed_trial import run_fixed_trial, trial_scenario
 
-MATCH_KEYS = ("match_speed", "match_by", "match_tolerance", "match_seeds", "match_iterations", "matched")
+MATCH_KEYS = ("match_speed", "match_by", "match_tolerance", "match_seeds", "match_iterations", "match_spread",
+              "matched")
 # the keys a calibration may tune and their search bounds (m/s, Hz, m)
 BY_BOUNDS = {"speed": (0.05, 3.0), "frequency": (1.0, 6.0), "step_length": (0.02, 0.2)}
 CALIBRATION_SEED0 = 1000
-DEFAULTS = {"match_by": "speed", "match_tolerance": 0.01, "match_seeds": 3, "match_iterations": 6}
+DEFAULTS = {"match_by": "speed", "match_tolerance": 0.01, "match_seeds": 3, "match_iterations": 6,
+            "match_spread": 0.1}
 MAX_STEP_RATIO = 1.6  # one proportional step changes the input by at most this factor
 _CELL_SKIP = ("seed", "matched")
 
@@ -68,6 +74,9 @@ def check_match(config: dict) -> None:
     tol = _opt(config, "match_tolerance")
     if isinstance(tol, bool) or not isinstance(tol, int | float) or not 0.0 < tol <= 0.5:
         raise ValueError(f"match_tolerance: in (0, 0.5] m/s, got {tol!r}")
+    spread = _opt(config, "match_spread")
+    if isinstance(spread, bool) or not isinstance(spread, int | float) or not 0.0 < spread <= 5.0:
+        raise ValueError(f"match_spread: in (0, 5] m/s, got {spread!r}")
     for key, least, most in (("match_seeds", 1, 50), ("match_iterations", 1, 30)):
         v = _opt(config, key)
         if isinstance(v, bool) or not isinstance(v, int) or not least <= v <= most:
@@ -110,23 +119,23 @@ def _start(config: dict, by: str) -> float:
     return float(getattr(trial_scenario(base), by))
 
 
-def _point(base: dict, by: str, x: float, seeds: list[int]) -> tuple[float, int]:
-    """Mean speed (m/s) over the standing calibration seeds at input x, and how many fell; NaN when more
-    than half fell."""
-    speeds, fell = [], 0
+def _point(base: dict, by: str, x: float, seeds: list[int], spread: float) -> tuple[float, int, list]:
+    """Mean speed (m/s) over the standing calibration seeds at input x, how many fell, and each seed's speed
+    (None: fell); NaN when more than half fell or the standing seeds span more than `spread` m/s."""
+    speeds: list[float | None] = []
     for s in seeds:
         try:
             m = run_fixed_trial({**base, by: float(x), "seed": s})
         except ScenarioError:  # an input the gait cannot run (a foot target out of reach): no speed there
-            return math.nan, 0
+            return math.nan, 0, []
         v = m.get("speed_m_s", math.nan)
-        if m.get("fell") or not (isinstance(v, float) and math.isfinite(v)):
-            fell += 1
-        else:
-            speeds.append(v)
-    if fell * 2 > len(seeds) or not speeds:
-        return math.nan, fell
-    return float(np.mean(speeds)), fell
+        standing = not m.get("fell") and isinstance(v, float) and math.isfinite(v)
+        speeds.append(float(v) if standing else None)
+    up = [v for v in speeds if v is not None]
+    fell = len(speeds) - len(up)
+    if fell * 2 > len(seeds) or not up or max(up) - min(up) > spread:
+        return math.nan, fell, speeds
+    return float(np.mean(up)), fell, speeds
 
 
 def next_value(history: list[tuple[float, float]], target: float, lo: float, hi: float) -> float | None:
@@ -168,16 +177,19 @@ def _calibrate(cell_json: str) -> str:
     check_match(config)
     by, target = _opt(config, "match_by"), float(config["match_speed"])
     tol, n_it = float(_opt(config, "match_tolerance")), int(_opt(config, "match_iterations"))
+    spread = float(_opt(config, "match_spread"))
     seeds = [CALIBRATION_SEED0 + i for i in range(int(_opt(config, "match_seeds")))]
     base = base_of(config)
     lo, hi = BY_BOUNDS[by]
     x: float | None = min(hi, max(lo, _start(config, by)))
     history: list[tuple[float, float]] = []
     falls: list[int] = []
+    per_seed: list[list] = []
     while x is not None and len(history) < n_it:
-        v, nf = _point(base, by, x, seeds)
+        v, nf, speeds = _point(base, by, x, seeds, spread)
         history.append((x, v))
         falls.append(nf)
+        per_seed.append(speeds)
         if math.isfinite(v) and abs(v - target) <= tol:
             break
         x = next_value(history, target, lo, hi)
@@ -191,9 +203,11 @@ def _calibrate(cell_json: str) -> str:
         "achieved_m_s": achieved if math.isfinite(achieved) else None,
         "converged": bool(math.isfinite(achieved) and abs(achieved - target) <= tol),
         "tolerance_m_s": tol,
+        "spread_m_s": spread,
         "seeds": seeds,
-        "history": [[x_, v_ if math.isfinite(v_) else None, nf] for (x_, v_), nf in zip(history, falls,
-                                                                                         strict=True)],
+        # per point: input, mean speed (None: no speed), falls, each seed's speed (None: fell)
+        "history": [[x_, v_ if math.isfinite(v_) else None, nf, sp]
+                    for (x_, v_), nf, sp in zip(history, falls, per_seed, strict=True)],
     }, sort_keys=True)
 
 

@@ -87,6 +87,29 @@ def test_a_falling_cell_has_no_speed(plant):
     assert not r["converged"] and r["achieved_m_s"] is None and all(h[1] is None for h in r["history"])
 
 
+def test_seeds_that_disagree_give_no_speed(plant, monkeypatch):
+    """A gait bimodal by seed (one calibration seed reverses): the seeds' mean lands on the target while no
+    seed runs it, so the point has no speed and the calibration does not converge; each seed's speed is
+    kept. Within the spread the same plant converges."""
+    def bimodal(config):
+        m = plant(config)
+        if config["seed"] == 1000:
+            m["speed_m_s"] -= 0.5  # another mode, 0.5 m/s slower: the mean is 0.25 m/s below seed 1001
+        return m
+
+    monkeypatch.setattr(speed_match, "run_fixed_trial", bimodal)
+    cell = {**CELL, "match_speed": 0.45}
+    r = calibrate(cell)
+    assert not r["converged"] and r["achieved_m_s"] is None
+    _x, v, nf, speeds = r["history"][0]
+    assert v is None and nf == 0 and speeds[1] - speeds[0] == pytest.approx(0.5, abs=0.01)
+    speed_match._calibrate.cache_clear()
+    ok = calibrate({**cell, "match_spread": 2.0})  # told to accept any spread, it averages the modes
+    assert ok["converged"]
+    with pytest.raises(ValueError, match="match_spread"):
+        speed_match.check_match({**CELL, "match_spread": 0})
+
+
 def test_the_trial_runs_at_the_calibrated_input(plant):
     m = speed_match.run_matched_trial({**CELL, "seed": 4})
     assert plant.calls[-1]["seed"] == 4 and plant.calls[-1]["speed"] == m["match_value"]
