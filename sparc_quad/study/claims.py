@@ -40,7 +40,7 @@ from sparc_quad.study.best_cell import (
     held_out,
     stands,
 )
-from sparc_quad.study.stats import CONFIDENCE, mean_over_seeds, paired_difference
+from sparc_quad.study.stats import CONFIDENCE, mean_over_seeds, paired_difference, power_statement
 
 HEADLINE = "cot_pos_total"
 ELEC = "cot_elec_total"
@@ -648,7 +648,7 @@ def evaluate(analysis: dict) -> list[dict]:
     return out
 
 
-def multiplicity(rows: list[dict]) -> dict:
+def multiplicity(rows: list[dict], seeds_per_cell: int | None = None) -> dict:
     """How many verdicts the rows give and what their intervals control: each verdict uses 95 % intervals
     computed for it alone, with no family-wise correction (the claims are separate questions, each read on
     its own; a Bonferroni bound over every row would make the intervals at 10 seeds about twice as wide and
@@ -664,6 +664,8 @@ def multiplicity(rows: list[dict]) -> dict:
         "expected_false_verdicts": alpha * n,
         "chance_of_any_false_verdict": 1.0 - CONFIDENCE**n,
         "min_seeds_per_cell": MIN_SEEDS,
+        "seeds_per_cell": seeds_per_cell,
+        "fall_power": None if not seeds_per_cell else power_statement(seeds_per_cell),
     }
 
 
@@ -676,33 +678,34 @@ def multiplicity_text(m: dict) -> str:
         "(falls)\". Every interval is a 95 % interval for its own verdict, shown with its n (seeds), with no "
         "family-wise correction (no Bonferroni or Holm across rows, nor across the cells one rule compares)"
     )
+    power = f" {m['fall_power']}" if m.get("fall_power") else ""
     if not m["verdicts"]:
-        return head + ": there is no verdict to correct."
+        return head + ": there is no verdict to correct." + power
     return (
         head + f": if every interval covers at its nominal 95 %, about {m['expected_false_verdicts']:.1f} of "
         f"the {m['verdicts']} verdicts can be wrong by chance alone, and the chance that at least one is "
         f"wrong is up to {m['chance_of_any_false_verdict']:.0%}. A rule that compares several cells (C1, C2, "
         "C5, C6 over the near-best set, F1 over a panel's cells) makes one such comparison per cell, so its "
         "verdict can err more often than 5 %. Read a single verdict with that in mind; an agreement across "
-        "engines, hosts and gaits counts for more than any one row."
+        "engines, hosts and gaits counts for more than any one row." + power
     )
 
 
-def document(rows: list[dict]) -> dict:
+def document(rows: list[dict], seeds_per_cell: int | None = None) -> dict:
     """claims.json: the multiplicity statement, each claim's source words and rule, and the rows."""
     claims = {
         c: {"text": CLAIM_TEXT[c], "source": SOURCES[c][0], "source_words": SOURCES[c][1],
             "reading": SOURCES[c][2], "rule": RULES[c]}
         for c in CLAIM_TEXT
     }
-    return {"multiplicity": multiplicity(rows), "claims": claims, "rows": rows}
+    return {"multiplicity": multiplicity(rows, seeds_per_cell), "claims": claims, "rows": rows}
 
 
-def markdown(rows: list[dict]) -> str:
-    """claims.md: the multiplicity statement, the verdict table, then per claim its source's words beside
-    this project's reading and rule."""
+def markdown(rows: list[dict], seeds_per_cell: int | None = None) -> str:
+    """claims.md: the multiplicity statement (with what `seeds_per_cell` seeds can tell of fall rates), the
+    verdict table, then per claim its source's words beside this project's reading and rule."""
     lines = [
-        multiplicity_text(multiplicity(rows)),
+        multiplicity_text(multiplicity(rows, seeds_per_cell)),
         "",
         "| claim (authors) | robot | engine | gait | spine | this study (95 % CI, n seeds) | verdict |",
         "|---|---|---|---|---|---|---|",

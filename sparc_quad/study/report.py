@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -414,9 +414,10 @@ def write_report(folder: Path | list[Path], n_boot: int = 400, out: Path | None 
     from sparc_quad.study.claims import document, evaluate, markdown
 
     claims = evaluate(res)
-    atomic_write_text(out / "claims.json", json.dumps(jsonable(document(claims)), indent=1, allow_nan=False)
-                      + "\n")
-    atomic_write_text(out / "claims.md", markdown(claims))
+    seeds = Counter(c.n for c in res["cells"]).most_common(1)[0][0] if res["cells"] else None
+    atomic_write_text(out / "claims.json", json.dumps(jsonable(document(claims, seeds)), indent=1,
+                                                      allow_nan=False) + "\n")
+    atomic_write_text(out / "claims.md", markdown(claims, seeds))
     paths += [out / "claims.json", out / "claims.md"]
     from sparc_quad.study.robustness import frequency_windows
     from sparc_quad.study.robustness import markdown as windows_markdown

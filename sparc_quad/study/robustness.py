@@ -9,9 +9,10 @@ with a Wilson interval and its mean speed; its window is the frequencies where a
 
 from __future__ import annotations
 
-from collections import defaultdict
+from collections import Counter, defaultdict
 
 from sparc_quad.study.best_cell import MIN_STANDING_SHARE
+from sparc_quad.study.stats import power_statement
 
 FREQUENCY = "frequency"
 
@@ -68,6 +69,8 @@ def markdown(rows: list[dict]) -> str:
         "Each entry: trials fallen / trials run at that frequency (Wilson 95 % interval of the fall rate),"
         " and the mean speed of the standing seeds, m/s. The window is the frequencies where at least "
         f"{MIN_STANDING_SHARE:.0%} of the seeds stood.",
+        "",
+        power_statement(Counter(p["n"] for r in rows for p in r["points"]).most_common(1)[0][0]),
         "",
         head,
         "|" + "---|" * (4 + len(freqs)),

@@ -23,7 +23,8 @@ bimodal by seed, some seeds bounding forward and others reversing, has a mean no
 in pybullet at a 0.5 m/s command ran 0.35, 0.55 and 0.60 m/s on the three seeds and "converged" on their
 mean 0.503). Each point keeps its seeds' speeds. From the start value (the command at the target for
 `speed`, else the gait's value), the next value scales by target / achieved (speed proportional to the
-input, step at most x1.6) until the target is bracketed, then interpolates inside the bracket. The result
+input, step at most x1.6) until the target is bracketed, then interpolates inside the bracket (while no
+point has a speed it steps down by 1.6, toward the gentler gait). The result
 is the point nearest the target, with `converged` saying whether it is within the tolerance.
 """
 
@@ -141,12 +142,15 @@ def _point(base: dict, by: str, x: float, seeds: list[int], spread: float) -> tu
 def next_value(history: list[tuple[float, float]], target: float, lo: float, hi: float) -> float | None:
     """The next input to try from (input, mean speed) points, or None when nothing is left to try:
     interpolation inside a bracket of the target, else a proportional step (at most x MAX_STEP_RATIO)
-    toward it; a point without a speed (falls) halves the way back to the nearest good one."""
+    toward it; a point without a speed (falls) halves the way back to the nearest good one, and while no
+    point has a speed the input steps down by MAX_STEP_RATIO (a slower command, a shorter step: the gentler
+    gait; gait A's locked spine fell at the default L 0.08 m, so a 0.5 m/s calibration never tried shorter
+    steps)."""
     good = [(x, v) for x, v in history if math.isfinite(v)]
     last_x, last_v = history[-1]
     if not good:
-        return None
-    if not math.isfinite(last_v):
+        x = last_x / MAX_STEP_RATIO
+    elif not math.isfinite(last_v):
         nearest = min(good, key=lambda p: abs(p[0] - last_x))[0]
         x = 0.5 * (last_x + nearest)
     else:

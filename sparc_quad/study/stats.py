@@ -166,6 +166,37 @@ def falls_more(k1: int, n1: int, k2: int, n2: int) -> bool:
     return rate_difference(k1, n1, k2, n2)[1] > 0.0
 
 
+def fall_power(n: int, p_low: float, p_high: float) -> float:
+    """Chance that `falls_more` resolves a cell whose true fall rate is `p_high` against one at `p_low`,
+    both run on `n` seeds (exact: every pair of binomial outcomes)."""
+    from scipy.stats import binom
+
+    lo, hi = binom.pmf(range(n + 1), n, p_low), binom.pmf(range(n + 1), n, p_high)
+    return float(sum(hi[k2] * lo[k1] for k1 in range(n + 1) for k2 in range(n + 1)
+                     if falls_more(k2, n, k1, n)))
+
+
+def least_resolved(k_low: int, n: int) -> int | None:
+    """The fewest falls out of `n` that `falls_more` tells from `k_low` out of `n` (None: none does)."""
+    return next((k for k in range(k_low + 1, n + 1) if falls_more(k, n, k_low, n)), None)
+
+
+def power_statement(n: int) -> str:
+    """What `n` seeds per cell can tell of fall rates: the counts resolved, the chance to resolve two."""
+    lows = sorted({0, n // 10, n // 2})
+
+    def from_(m: int | None) -> str:
+        return "from none" if m is None else f"only from {n}/{n}" if m == n else f"from {m}/{n} or more"
+
+    told = "; ".join(f"{k}/{n} {from_(least_resolved(k, n))}" for k in lows)
+    chances = ", ".join(f"{100 * a:.0f} % against {100 * b:.0f} %: {100 * fall_power(n, a, b):.0f} %"
+                        for a, b in ((0.0, 0.3), (0.1, 0.5), (0.0, 0.5)))
+    return (f"Power at n = {n} seeds per cell: a cell's falls are resolved as more than another's (Newcombe "
+            f"95 % interval of the difference above 0) for {told}; true fall rates are resolved with "
+            f"probability {chances}. A smaller difference is not evidence that two spines are equally "
+            "robust.")
+
+
 def ratio_interval(num: Sequence[float], den: Sequence[float]) -> Estimate | None:
     """mean(num) / mean(den) over paired replicates, t interval by the delta method."""
     a, b = np.asarray(num, float), np.asarray(den, float)

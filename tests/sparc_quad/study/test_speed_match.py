@@ -58,7 +58,9 @@ def test_inside_a_bracket_it_interpolates():
 
 def test_a_point_without_speed_goes_half_way_back():
     assert next_value([(1.0, 0.8), (1.6, math.nan)], 0.9, 0.05, 3.0) == pytest.approx(1.3)
-    assert next_value([(1.0, math.nan)], 0.9, 0.05, 3.0) is None  # nothing to go back to
+    # nothing to go back to: the gentler input (x 1/1.6), down to the bound, then nothing is left
+    assert next_value([(1.0, math.nan)], 0.9, 0.05, 3.0) == pytest.approx(1.0 / MAX_STEP_RATIO)
+    assert next_value([(0.06, math.nan), (0.05, math.nan)], 0.9, 0.05, 3.0) is None
 
 
 def test_a_bound_already_tried_ends_the_search():
@@ -82,9 +84,18 @@ def test_an_unreachable_target_is_reported_not_met(plant):
 
 
 def test_a_falling_cell_has_no_speed(plant):
-    plant.fall_above = 0.5
+    plant.fall_above = 0.05  # falls at every command the search may try
     r = calibrate(CELL)
     assert not r["converged"] and r["achieved_m_s"] is None and all(h[1] is None for h in r["history"])
+
+
+def test_a_start_that_falls_steps_to_gentler_inputs(plant):
+    """The start command falls; the search steps down until a point stands, then converges from there."""
+    plant.fall_above = 0.5
+    r = calibrate({**CELL, "match_speed": 0.35, "speed": 1.0})
+    xs = [h[0] for h in r["history"]]
+    assert r["history"][0][1] is None and xs[1] == pytest.approx(1.0 / MAX_STEP_RATIO)
+    assert r["converged"] and r["value"] == pytest.approx((0.35 - 0.05) / 0.8, abs=0.02)
 
 
 def test_seeds_that_disagree_give_no_speed(plant, monkeypatch):

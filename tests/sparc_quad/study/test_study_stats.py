@@ -87,3 +87,23 @@ def test_fall_rates_compared_by_their_interval():
     assert d == pytest.approx(1 / 3) and lo < 0 < hi
     d, lo, hi = rate_difference(9, 10, 0, 10)
     assert lo > 0
+
+
+def test_fall_power_is_the_chance_falls_more_resolves_two_rates():
+    """Exact power against a simulation of the same test; its false-alarm rate at equal rates stays under
+    the one-sided 2.5 %; more seeds resolve more; the counts quoted are where the test turns."""
+    import numpy as np
+
+    from sparc_quad.study.stats import fall_power, falls_more, least_resolved, power_statement
+
+    rng = np.random.default_rng(0)
+    k_low, k_high = rng.binomial(10, 0.1, 4000), rng.binomial(10, 0.5, 4000)
+    simulated = np.mean([falls_more(int(b), 10, int(a), 10) for a, b in zip(k_low, k_high, strict=True)])
+    assert fall_power(10, 0.1, 0.5) == pytest.approx(simulated, abs=0.025)
+    for p in (0.1, 0.3, 0.5):
+        assert fall_power(10, p, p) <= 0.025
+    assert fall_power(20, 0.1, 0.5) > fall_power(10, 0.1, 0.5)
+    m = least_resolved(1, 10)
+    assert falls_more(m, 10, 1, 10) and not falls_more(m - 1, 10, 1, 10)
+    assert not falls_more(9, 10, 5, 10)  # the issue's example: n = 10 cannot tell 9/10 from 5/10
+    assert f"1/10 from {m}/10 or more" in power_statement(10)
