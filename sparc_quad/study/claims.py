@@ -502,13 +502,13 @@ def _c4(analysis, ref, low, spine, base) -> dict:
     lb, rb = base_cell(low), base_cell(ref)
     few = [c for c in [*compared, lb, rb] if c is not None and not enough_seeds(c)]
     if len(common) < 2 or lb is None or rb is None or lb.est is None or rb.est is None or not (
-            stands(lb) and stands(rb)):
+            stands(lb) and stands(rb)) or lb.off_speed or rb.off_speed:
         return {
             **base,
             "claim": "C4",
             "verdict": NOT_TESTED_N if few else "not tested",
             "finding": f"{len(common)} common on-speed cells at {low['target_speed_m_s']:.2f} and "
-            f"{ref['target_speed_m_s']:.2f} m/s (need 2 and both baselines standing)"
+            f"{ref['target_speed_m_s']:.2f} m/s (need 2, and both baselines standing and on speed)"
             + (f"; {len(few)} cells with n < minimum (need {MIN_SEEDS} seeds)" if few else ""),
         }
     r = _range_ratio([a[k] for k in common], [b[k] for k in common], lb, rb)
