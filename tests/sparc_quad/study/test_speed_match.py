@@ -63,6 +63,13 @@ def test_a_point_without_speed_goes_half_way_back():
     assert next_value([(0.06, math.nan), (0.05, math.nan)], 0.9, 0.05, 3.0) is None
 
 
+def test_a_step_onto_an_input_that_fell_is_halved_back():
+    """Fell at 0.08, stood at 0.05 running 0.54 (target 0.9): the x1.6 step lands on 0.08 again, so the
+    search tries 0.065, between the two; a step onto an input with a speed ends the search as before."""
+    assert next_value([(0.08, math.nan), (0.05, 0.54)], 0.9, 0.02, 0.2) == pytest.approx(0.065)
+    assert next_value([(0.08, 0.7), (0.05, 0.54)], 0.9, 0.02, 0.2) is None
+
+
 def test_a_bound_already_tried_ends_the_search():
     assert next_value([(3.0, 0.5)], 0.9, 0.05, 3.0) is None
 
