@@ -265,6 +265,8 @@ wait $NODE || [ $? -eq 3 ]
         node_rtt = [float(x) for x in ls["robot_rtt_s"][100:]]
         bare = json.loads((d / "bare.json").read_text())
         rt_node = json.loads((d / "rt_node.json").read_text())
+        if rt_node.get("ended_latched") not in (None, "", "HEARTBEAT_LOST"):  # exit 3 accepted for that one
+            raise SystemExit(f"real time: the node ended latched {rt_node['ended_latched']}")
         rt_robot = json.loads((d / "rt" / "summary.json").read_text())
         rt = np.load(d / "rt" / "bench_robot.npz")
         ls_node = json.loads((d / "ls_node.json").read_text())

@@ -239,12 +239,6 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput(missing)
     cfg = config_from_args(args, scenario)
     spine = None
-    if args.lcm and cfg.spine_params is not None:
-        # `spine-node` runs the SPARC module's spine model; it would render this host's spine with the
-        # wrong links and masses (and the robot side would read its task pose with them too)
-        raise BadInput(f"--lcm: the spine node process models the SPARC module's spine, not "
-                       f"{scenario.host}'s (other link lengths and masses); run this host's spine node in "
-                       "process with --spine-path node")
     if args.lcm:
         from sparc_quad.robot_side.quad import NodeSpine
         from spine_module.node import realtime
@@ -256,7 +250,10 @@ def run(args: argparse.Namespace) -> int:
             spine = NodeSpine.over_lcm(cfg.spine, cfg.friction_compensation, url=args.lcm_url,
                                        lockstep=not args.realtime, wait_node_s=args.wait_node,
                                        spin_s=args.lcm_spin_us * 1e-6, node_states=args.lcm_node_states,
-                                       schedule=cfg.spine_schedule, torso_accel=cfg.spine_torso_accel)
+                                       schedule=cfg.spine_schedule, torso_accel=cfg.spine_torso_accel,
+                                       spine=cfg.spine_params)
+        except ValueError as exc:
+            raise BadInput(f"--lcm: host {scenario.host}: {exc}") from None
         except TimeoutError as exc:
             raise BadInput(f"--lcm: {exc}; start `sparc-quad spine-node --motors lcm --clock lockstep` "
                            "first") from exc

@@ -87,7 +87,12 @@ class NodeSpine:
         `node_states`: also receive the node's spine states (SPARC_SPINE_STATE, every tick) and keep them
         for `node_states()`. Off by default: each state wakes LCM's receiving thread in this process, beside
         the simulation, and on the 2-vCPU machine measured that cost the robot process ~30 % of its CPU
-        time per tick (docs/performance.md, "LCM lockstep"); `lcm-logger` records them outside it."""
+        time per tick (docs/performance.md, "LCM lockstep"); `lcm-logger` records them outside it.
+        ValueError for a `spine` other than the SPARC module's: `spine-node` runs that model, and would
+        render another host's spine with the wrong links and masses."""
+        if kw.get("spine") not in (None, P.DEFAULT_SPINE):
+            raise ValueError("the spine node process models the SPARC module's spine; another spine model "
+                             "runs only in process (spine_path node)")
         spine = cls(LcmPort(url, keep_states=node_states, spin_s=spin_s), gains, friction, lockstep=lockstep,
                     **kw)
         if not spine.robot.wait_for_node(wait_node_s):  # tick 0 must not be published into the void

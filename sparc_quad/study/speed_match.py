@@ -23,9 +23,9 @@ bimodal by seed, some seeds bounding forward and others reversing, has a mean no
 in pybullet at a 0.5 m/s command ran 0.35, 0.55 and 0.60 m/s on the three seeds and "converged" on their
 mean 0.503). Each point keeps its seeds' speeds. From the start value (the command at the target for
 `speed`, else the gait's value), the next value scales by target / achieved (speed proportional to the
-input, step at most x1.6) until the target is bracketed, then interpolates inside the bracket (while no
-point has a speed it steps down by 1.6, toward the gentler gait). The result
-is the point nearest the target, with `converged` saying whether it is within the tolerance.
+input, step at most x1.6) until the target is bracketed, then interpolates inside the bracket; inputs
+that fell are searched around (`next_value`). The result is the point nearest the target, with `converged`
+saying whether it is within the tolerance.
 """
 
 from __future__ import annotations
@@ -142,13 +142,14 @@ def _point(base: dict, by: str, x: float, seeds: list[int], spread: float) -> tu
 
 def next_value(history: list[tuple[float, float]], target: float, lo: float, hi: float) -> float | None:
     """The next input to try from (input, mean speed) points, or None when nothing is left to try:
-    interpolation inside a bracket of the target, else a proportional step (at most x MAX_STEP_RATIO)
-    toward it (halved back while it lands on an input that fell: the locked spine at 0.9 m/s fell at L
-    80 mm, stood at 50 mm, and was never tried between); a point without a speed (falls) halves the way
-    back to the nearest good one, and while no
-    point has a speed the input steps down by MAX_STEP_RATIO (a slower command, a shorter step: the gentler
-    gait; gait A's locked spine fell at the default L 0.08 m, so a 0.5 m/s calibration never tried shorter
-    steps)."""
+    - inside a bracket of the target, interpolation;
+    - else a proportional step toward it (at most x MAX_STEP_RATIO), halved back toward the last good
+      input while it lands on one that fell (gait A's locked spine at 0.9 m/s fell at L 80 mm, stood at
+      50 mm, and 50-80 mm was never tried);
+    - after a point without a speed (falls, or seeds that disagree), half way back to the nearest good one;
+    - while no point has a speed, a step down by MAX_STEP_RATIO: a slower command or a shorter step is the
+      gentler gait (gait A's locked spine fell at the default L 80 mm, and its 0.5 m/s calibration ended
+      there)."""
     good = [(x, v) for x, v in history if math.isfinite(v)]
     last_x, last_v = history[-1]
     if not good:

@@ -30,7 +30,7 @@ from spine_module.messages.lcmt.sparc import (
 )
 from spine_module.messages.motor import MotorCommand, MotorFeedback
 from spine_module.messages.types import MODES, Fault, Heartbeat, Mode, SpineCommand, SpineState, TorsoState
-from spine_module.workspace import Workspace
+from spine_module.workspace import SPARC, Workspace
 
 LCM_TYPES = (torso_state_t, spine_command_t, spine_state_t, motor_command_t, motor_feedback_t, heartbeat_t)
 
@@ -81,7 +81,6 @@ class Range:
 _PI = math.pi
 _TAU_MAX = params.TORQUE_LIMIT_NM
 _VEL_MAX = params.VELOCITY_LIMIT_RAD_S
-_REACH = sum(link.length_m for link in params.LINKS)  # straight spine, m
 # Interface sanity limits. They reject garbage, not merely unusual commands: gains up to 10x the paper's.
 K_MAX = (5000.0, 10000.0, 150.0)  # N/m, N/m, N*m/rad
 D_MAX = (200.0, 200.0, 10.0)  # N*s/m, N*s/m, N*m*s/rad
@@ -106,7 +105,7 @@ TORSO_RANGES = {
 _TORSO_GATED = {"ddq1": "ddq1_valid", "base_accel": "base_accel_valid"}
 
 
-def command_ranges(reach_m: float = _REACH) -> dict[str, Range | list[Range]]:
+def command_ranges(reach_m: float) -> dict[str, Range | list[Range]]:
     """A spine command's per-field ranges for a spine whose straight pose reaches `reach_m` along x."""
     return {
         "x_d": [Range(0.0, reach_m, "m"), Range(-reach_m, reach_m, "m"), Range(-_PI, _PI, "rad")],
@@ -120,7 +119,7 @@ def command_ranges(reach_m: float = _REACH) -> dict[str, Range | list[Range]]:
     }
 
 
-COMMAND_RANGES = command_ranges()  # the SPARC module's
+COMMAND_RANGES = command_ranges(SPARC.reach_m)  # the SPARC module's
 _CG = params.CYBERGEAR
 _POS_MAX = max(_CG.position_rad, _CG.position_table_rad)  # either scaling of the frames' position
 FEEDBACK_RANGES = {

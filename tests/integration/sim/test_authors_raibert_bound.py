@@ -110,8 +110,12 @@ def test_lcm_refused_for_the_dog_naming_it(capsys):
     """`spine-node` (another process) runs the SPARC module's spine model: the dog over --lcm is refused
     before anything is sent, not driven with the wrong links and masses."""
     from sparc_quad.cli import main
+    from sparc_quad.robot_side.quad import NodeSpine
 
     assert main(["bound", "--host", "spined-dog", "--lcm", "--lcm-url", "memq://", "--wait-node", "0.1",
                  "--out", "/nonexistent-never-written"]) == 2
     err = capsys.readouterr().err
     assert "--lcm" in err and "spined-dog" in err and "Traceback" not in err
+    cfg = bound_config(Scenario(host="spined-dog"))
+    with pytest.raises(ValueError, match="SPARC module's spine"):  # the API refuses it too, before waiting
+        NodeSpine.over_lcm(cfg.spine, url="memq://", wait_node_s=60.0, spine=cfg.spine_params)

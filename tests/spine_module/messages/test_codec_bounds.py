@@ -29,6 +29,7 @@ from spine_module.messages.lcmt.sparc import (
     torso_state_t,
 )
 from spine_module.messages.motor import MotorCommand, MotorFeedback
+from spine_module.workspace import SPARC
 
 _FB = MotorFeedback(q=np.zeros(3), dq=np.zeros(3), tau=np.zeros(3), temperature_c=np.full(3, 30.0),
                     mode=np.full(3, 2, dtype=np.int32), fault=np.zeros(3, dtype=np.int32),
@@ -117,7 +118,7 @@ def test_each_checked_value_is_named_by_its_label_and_its_bounds_are_inclusive(c
     (torso_state_t, {"utime": -1, "seq": -2, "q1": math.nan}, "seq: -2 is negative"),
     (torso_state_t, {"utime": -1, "q1": math.inf}, "utime: -1 is negative"),
     (spine_command_t, {"mode": 7, "k": 1e9}, "mode: 7 is not a mode (0..5)"),
-    (spine_command_t, {"tau_ff": -math.inf, "x_d": 9.0}, f"x_d[0]: 9 outside [0, {codec._REACH:.6g}] m"),
+    (spine_command_t, {"tau_ff": -math.inf, "x_d": 9.0}, f"x_d[0]: 9 outside [0, {SPARC.reach_m:.6g}] m"),
     (motor_feedback_t, {"mode": 5, "load_cell": math.inf}, "load_cell[0]: inf (infinite)"),
     (motor_feedback_t, {"mode": -1}, "mode[0]: -1 is not a motor mode (0 reset, 1 cal, 2 run)"),
     (motor_command_t, {"kd": 6.0, "position": math.nan}, "position[0]: NaN"),

@@ -25,6 +25,7 @@ class LateIO(InProcessNodeIO):
         self._lock = threading.Lock()
         self._late = frozenset(late)
         self._in_flight: dict[str, bytes] = {}
+        self.inbox_waits = 0  # opening waits that found something still in flight
 
     def deliver(self, channel: str, data: bytes) -> None:
         if channel not in self._late:
@@ -53,8 +54,6 @@ class LateIO(InProcessNodeIO):
             self.inbox_waits += 1
             self._release()
         return ready(self.inbox)
-
-    inbox_waits = 0
 
 
 def _q1(k: int) -> float:
